@@ -1,0 +1,421 @@
+"""The stereo clip: a directory holding a rendered (or captured) stereo gesture clip.
+
+Layout of a clip directory::
+
+    clip.json   metadata (see :data:`REQUIRED_FIELDS`)
+    left.npy    (frames, height, 2*width) uint8, the left camera's YCbCr 4:2:2 stream
+    right.npy   (frames, height, 2*width) uint8, the right camera's stream
+    truth.csv   frame,hand_x,hand_y,hand_area,moving
+
+Each frame row of a ``.npy`` is the camera byte stream ``Y0 Cb0 Y1 Cr0 ...``
+(thesis §5.4, Table 11). ``truth.csv`` gives, per frame, the exact centroid of
+the hand's pixels in the LEFT image (two decimals; ``nan`` when no hand pixel is
+visible), their count, and whether the frame lies in the motion span
+``motion_frames = [first, last]`` (inclusive) of ``clip.json``.
+
+:func:`save_clip` writes into a temporary sibling directory and renames it into
+place, so a clip directory is never left half-written; :func:`load_clip`
+validates every file and raises ``ValueError`` naming the file and the field.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import numbers
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim.gesture_shapes import GESTURE_NAMES
+
+__all__ = [
+    "CLIP_FORMAT", "CLIP_VERSION", "PIXEL_FORMAT", "MAX_DISPARITY", "TRUTH_HEADER",
+    "REQUIRED_FIELDS", "Clip", "save_clip", "load_clip", "is_clip_dir", "round_truth",
+]
+
+CLIP_FORMAT = "stereogest-clip"
+CLIP_VERSION = 1
+PIXEL_FORMAT = "YCbCr 4:2:2, bytes Y0 Cb Y1 Cr"
+#: Number of disparities of the matcher (d in 0..47).
+MAX_DISPARITY = 48
+TRUTH_HEADER = ("frame", "hand_x", "hand_y", "hand_area", "moving")
+#: Keys every ``clip.json`` holds; ``renderer`` (a free-form object) is optional.
+REQUIRED_FIELDS = ("format", "version", "gesture", "seed", "width", "height", "frames",
+                   "fps", "pixel_format", "hand_disparity", "face_disparity",
+                   "motion_frames")
+
+_JSON, _LEFT, _RIGHT, _TRUTH = "clip.json", "left.npy", "right.npy", "truth.csv"
+
+
+def round_truth(values) -> np.ndarray:
+    """Round hand coordinates to two decimals exactly as ``truth.csv`` stores them.
+
+    Rounding through the decimal text makes a saved and reloaded clip compare
+    equal to the in-memory one.
+    """
+    arr = np.asarray(values, dtype=float)
+    return np.array([float(f"{v:.2f}") for v in arr.ravel()], dtype=float).reshape(arr.shape)
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+@dataclass(eq=False)
+class Clip:
+    """A stereo gesture clip in memory (see the module docstring for the files).
+
+    Attributes
+    ----------
+    gesture : str
+        One of :data:`sim.gesture_shapes.GESTURE_NAMES`.
+    seed : int, >= 0
+        Seed the clip was rendered with.
+    fps : int, 1..1000
+        Nominal frame rate.
+    hand_disparity, face_disparity : int, 0..47
+        Disparities (pixels) of the hand and face layers.
+    motion_frames : (int, int)
+        First and last (inclusive) frame of the gesture motion.
+    left, right : (frames, height, 2*width) uint8
+        Camera byte streams (YCbCr 4:2:2, ``Y0 Cb Y1 Cr``).
+    hand_xy : (frames, 2) float64
+        Centroid ``(x, y)`` of the hand pixels of the left image, two decimals;
+        NaN where ``hand_area`` is 0.
+    hand_area : (frames,) int64
+        Number of hand pixels in the left image.
+    renderer : dict
+        Extra JSON-serialisable metadata (renderer parameters).
+    """
+
+    gesture: str
+    seed: int
+    fps: int
+    hand_disparity: int
+    face_disparity: int
+    motion_frames: tuple[int, int]
+    left: np.ndarray
+    right: np.ndarray
+    hand_xy: np.ndarray
+    hand_area: np.ndarray
+    renderer: dict = field(default_factory=dict)
+
+    @property
+    def frames(self) -> int:
+        return int(self.left.shape[0])
+
+    @property
+    def height(self) -> int:
+        return int(self.left.shape[1])
+
+    @property
+    def width(self) -> int:
+        return int(self.left.shape[2]) // 2
+
+    @property
+    def moving(self) -> np.ndarray:
+        """(frames,) bool: True inside the motion span ``motion_frames``."""
+        first, last = self.motion_frames
+        index = np.arange(self.frames)
+        return (index >= first) & (index <= last)
+
+    def metadata(self) -> dict:
+        """The ``clip.json`` content of this clip."""
+        meta = {
+            "format": CLIP_FORMAT, "version": CLIP_VERSION,
+            "gesture": self.gesture, "seed": int(self.seed),
+            "width": self.width, "height": self.height, "frames": self.frames,
+            "fps": int(self.fps), "pixel_format": PIXEL_FORMAT,
+            "hand_disparity": int(self.hand_disparity),
+            "face_disparity": int(self.face_disparity),
+            "motion_frames": [int(self.motion_frames[0]), int(self.motion_frames[1])],
+        }
+        if self.renderer:
+            meta["renderer"] = self.renderer
+        return meta
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` (naming the attribute) unless the clip is consistent."""
+        _check_metadata(self.metadata(), "Clip")
+        for name in ("left", "right"):
+            arr = getattr(self, name)
+            if not isinstance(arr, np.ndarray) or arr.dtype != np.uint8 or arr.ndim != 3:
+                raise ValueError(f"Clip.{name} must be a 3-D uint8 array "
+                                 f"(frames, height, 2*width)")
+        if self.right.shape != self.left.shape:
+            raise ValueError(f"Clip.right shape {self.right.shape} differs from "
+                             f"Clip.left shape {self.left.shape}")
+        _check_truth_arrays(np.asarray(self.hand_xy), np.asarray(self.hand_area),
+                            self.frames, "Clip")
+
+
+def _check_metadata(meta, where: str) -> dict:
+    """Validate a ``clip.json`` object; ``where`` prefixes every message."""
+    if not isinstance(meta, dict):
+        raise ValueError(f"{where}: must hold a JSON object")
+    for key in REQUIRED_FIELDS:
+        if key not in meta:
+            raise ValueError(f"{where}: missing field '{key}'")
+
+    def bad(key: str, expected: str) -> ValueError:
+        return ValueError(f"{where}: field '{key}' must be {expected}, got {meta[key]!r}")
+
+    if meta["format"] != CLIP_FORMAT:
+        raise bad("format", repr(CLIP_FORMAT))
+    if not _is_int(meta["version"]) or meta["version"] != CLIP_VERSION:
+        raise bad("version", str(CLIP_VERSION))
+    if meta["gesture"] not in GESTURE_NAMES:
+        raise bad("gesture", "one of " + ", ".join(GESTURE_NAMES))
+    if not _is_int(meta["seed"]) or meta["seed"] < 0:
+        raise bad("seed", "a non-negative integer")
+    if not _is_int(meta["width"]) or meta["width"] < 2 or meta["width"] % 2:
+        raise bad("width", "an even integer >= 2 (pixels come in 4:2:2 pairs)")
+    if not _is_int(meta["height"]) or meta["height"] < 1:
+        raise bad("height", "a positive integer")
+    if not _is_int(meta["frames"]) or meta["frames"] < 1:
+        raise bad("frames", "a positive integer")
+    if not _is_int(meta["fps"]) or not 1 <= meta["fps"] <= 1000:
+        raise bad("fps", "an integer in [1, 1000]")
+    if meta["pixel_format"] != PIXEL_FORMAT:
+        raise bad("pixel_format", repr(PIXEL_FORMAT))
+    for key in ("hand_disparity", "face_disparity"):
+        if not _is_int(meta[key]) or not 0 <= meta[key] < MAX_DISPARITY:
+            raise bad(key, f"an integer in [0, {MAX_DISPARITY - 1}]")
+    span = meta["motion_frames"]
+    if (not isinstance(span, (list, tuple)) or len(span) != 2
+            or not all(_is_int(v) for v in span)
+            or not 0 <= span[0] <= span[1] < meta["frames"]):
+        raise bad("motion_frames", "[first, last] with 0 <= first <= last < frames")
+    if "renderer" in meta and not isinstance(meta["renderer"], dict):
+        raise bad("renderer", "a JSON object")
+    return meta
+
+
+def _check_truth_arrays(hand_xy: np.ndarray, hand_area: np.ndarray, frames: int,
+                        where: str) -> None:
+    if hand_xy.shape != (frames, 2) or hand_xy.dtype.kind != "f":
+        raise ValueError(f"{where}: hand_xy must be a ({frames}, 2) float array, "
+                         f"got shape {hand_xy.shape} dtype {hand_xy.dtype}")
+    if hand_area.shape != (frames,) or hand_area.dtype.kind not in "iu":
+        raise ValueError(f"{where}: hand_area must be a ({frames},) integer array, "
+                         f"got shape {hand_area.shape} dtype {hand_area.dtype}")
+    if np.any(hand_area < 0):
+        raise ValueError(f"{where}: hand_area must be >= 0")
+    missing = np.isnan(hand_xy).any(axis=1)
+    if np.any(missing != (hand_area == 0)) or np.any(np.isinf(hand_xy)):
+        frame = int(np.flatnonzero((missing != (hand_area == 0))
+                                   | np.isinf(hand_xy).any(axis=1))[0])
+        raise ValueError(f"{where}: hand_x/hand_y must be finite exactly when hand_area > 0 "
+                         f"(frame {frame})")
+
+
+def is_clip_dir(path) -> bool:
+    """True if ``path`` is a directory whose ``clip.json`` declares the clip format."""
+    meta_path = Path(path) / _JSON
+    try:
+        with open(meta_path, encoding="utf-8") as fh:
+            meta = json.load(fh)
+    except (OSError, ValueError):
+        return False
+    return isinstance(meta, dict) and meta.get("format") == CLIP_FORMAT
+
+
+def _truth_text(clip: Clip) -> str:
+    out = io.StringIO()
+    out.write(",".join(TRUTH_HEADER) + "\n")
+    for frame, ((x, y), area, moving) in enumerate(
+            zip(clip.hand_xy, clip.hand_area, clip.moving)):
+        out.write(f"{frame},{x:.2f},{y:.2f},{int(area)},{int(moving)}\n")
+    return out.getvalue()
+
+
+def save_clip(clip: Clip, path) -> Path:
+    """Write ``clip`` as a clip directory at ``path`` (atomically).
+
+    The files are written into a temporary sibling directory which is renamed to
+    ``path`` at the end; on any error the temporary directory is removed. An
+    existing clip directory at ``path`` is replaced, an empty directory too;
+    any other existing path is refused.
+
+    Returns
+    -------
+    pathlib.Path
+        The clip directory.
+
+    Raises
+    ------
+    ValueError
+        If the clip is inconsistent, or ``path`` exists and is not a clip.
+    FileNotFoundError
+        If the parent directory of ``path`` does not exist.
+    """
+    clip.validate()
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
+    if not target.name:
+        raise ValueError(f"clip path must name a directory, got {str(path)!r}")
+    if target.exists() or target.is_symlink():
+        empty_dir = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
+        if not (empty_dir or (target.is_dir() and is_clip_dir(target))):
+            raise ValueError(f"{target} exists and is not a stereogest clip; "
+                             f"refusing to overwrite it")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"parent directory of the clip does not exist: {parent}")
+
+    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=parent))
+    old = None
+    try:
+        with open(staging / _JSON, "w", encoding="utf-8") as fh:
+            json.dump(clip.metadata(), fh, indent=2)
+            fh.write("\n")
+        np.save(staging / _LEFT, np.ascontiguousarray(clip.left), allow_pickle=False)
+        np.save(staging / _RIGHT, np.ascontiguousarray(clip.right), allow_pickle=False)
+        with open(staging / _TRUTH, "w", encoding="utf-8", newline="") as fh:
+            fh.write(_truth_text(clip))
+        os.chmod(staging, 0o755)        # mkdtemp makes it private
+        if target.exists():
+            # Move the old clip aside first: a rename cannot replace a non-empty dir.
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=parent))
+            os.rmdir(old)
+            os.rename(target, old)
+        os.rename(staging, target)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        if old is not None and old.exists() and not target.exists():
+            os.rename(old, target)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+    return target
+
+
+def _load_array(path: Path, expected_shape: tuple[int, ...], mmap: bool) -> np.ndarray:
+    """Load a ``.npy`` after checking its header and its length against the json."""
+    name = path.name
+    if not path.is_file():
+        raise ValueError(f"{name}: missing file in clip {path.parent}")
+    try:
+        with open(path, "rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+            else:
+                raise ValueError(f"unsupported .npy version {version}")
+            data_offset = fh.tell()
+    except ValueError as exc:
+        raise ValueError(f"{name}: not a valid .npy file ({exc})") from None
+    if dtype != np.uint8:
+        raise ValueError(f"{name}: dtype must be uint8, got {dtype}")
+    if fortran:
+        raise ValueError(f"{name}: array must be stored in C order")
+    if tuple(shape) != expected_shape:
+        raise ValueError(f"{name}: shape {tuple(shape)} does not match clip.json "
+                         f"(frames, height, 2*width) = {expected_shape}")
+    expected_bytes = data_offset + math.prod(shape)
+    actual_bytes = path.stat().st_size
+    if actual_bytes != expected_bytes:
+        raise ValueError(f"{name}: file is {actual_bytes} bytes, expected {expected_bytes} "
+                         f"for shape {tuple(shape)} (truncated or padded)")
+    return np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
+
+
+def _load_truth(path: Path, frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    name = path.name
+    if not path.is_file():
+        raise ValueError(f"{name}: missing file in clip {path.parent}")
+    with open(path, encoding="utf-8", newline="") as fh:
+        rows = list(csv.reader(fh))
+    if not rows or tuple(cell.strip() for cell in rows[0]) != TRUTH_HEADER:
+        raise ValueError(f"{name}: header must be {','.join(TRUTH_HEADER)}")
+    rows = [row for row in rows[1:] if row]
+    if len(rows) != frames:
+        raise ValueError(f"{name}: has {len(rows)} rows, clip.json field 'frames' is {frames}")
+    hand_xy = np.empty((frames, 2))
+    hand_area = np.empty(frames, dtype=np.int64)
+    moving = np.empty(frames, dtype=bool)
+    for index, row in enumerate(rows):
+        line = index + 2
+        if len(row) != len(TRUTH_HEADER):
+            raise ValueError(f"{name}: line {line} has {len(row)} fields, expected "
+                             f"{len(TRUTH_HEADER)}")
+        column = "frame"
+        try:
+            if int(row[0]) != index:
+                raise ValueError(f"{name}: line {line}: field 'frame' must be {index}, "
+                                 f"got {row[0]}")
+            column = "hand_x"
+            hand_xy[index, 0] = float(row[1])
+            column = "hand_y"
+            hand_xy[index, 1] = float(row[2])
+            column = "hand_area"
+            hand_area[index] = int(row[3])
+            column = "moving"
+            if row[4].strip() not in ("0", "1"):
+                raise ValueError("not 0 or 1")
+            moving[index] = row[4].strip() == "1"
+        except ValueError as exc:
+            if str(exc).startswith(name):
+                raise
+            raise ValueError(f"{name}: line {line}: bad field '{column}': "
+                             f"{row[TRUTH_HEADER.index(column)]!r}") from None
+    return hand_xy, hand_area, moving
+
+
+def load_clip(path, mmap: bool = True) -> Clip:
+    """Read and validate a clip directory.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The clip directory.
+    mmap : bool
+        Memory-map ``left.npy`` and ``right.npy`` read-only instead of reading them.
+
+    Returns
+    -------
+    Clip
+
+    Raises
+    ------
+    ValueError
+        If the directory, a file or a field is missing or inconsistent; the
+        message names the file and the field.
+    """
+    root = Path(path)
+    if not root.is_dir():
+        raise ValueError(f"{root}: not a clip directory")
+    meta_path = root / _JSON
+    if not meta_path.is_file():
+        raise ValueError(f"{_JSON}: missing file in clip {root}")
+    try:
+        with open(meta_path, encoding="utf-8") as fh:
+            meta = json.load(fh)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{_JSON}: not valid JSON ({exc})") from None
+    _check_metadata(meta, _JSON)
+
+    shape = (meta["frames"], meta["height"], 2 * meta["width"])
+    left = _load_array(root / _LEFT, shape, mmap)
+    right = _load_array(root / _RIGHT, shape, mmap)
+    hand_xy, hand_area, moving = _load_truth(root / _TRUTH, meta["frames"])
+
+    clip = Clip(gesture=meta["gesture"], seed=meta["seed"], fps=meta["fps"],
+                hand_disparity=meta["hand_disparity"],
+                face_disparity=meta["face_disparity"],
+                motion_frames=(meta["motion_frames"][0], meta["motion_frames"][1]),
+                left=left, right=right, hand_xy=hand_xy, hand_area=hand_area,
+                renderer=meta.get("renderer", {}))
+    _check_truth_arrays(hand_xy, hand_area, clip.frames, _TRUTH)
+    mismatch = np.flatnonzero(moving != clip.moving)
+    if mismatch.size:
+        raise ValueError(f"{_TRUTH}: field 'moving' at frame {int(mismatch[0])} disagrees "
+                         f"with clip.json field 'motion_frames' {list(clip.motion_frames)}")
+    return clip

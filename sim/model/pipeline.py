@@ -1,0 +1,182 @@
+"""The whole FPGA side as golden model: camera bytes in, per-frame
+(x, y, gesture flag) out (thesis chapters 5-7).
+
+A reader sees the pipeline in :func:`process_frame` and :func:`track` as a
+list of stages, each a pure function of :mod:`sim.model`::
+
+    per frame (§5.4, §6.1-6.4, §7.1)
+        ycbcr422_to_444      left and right camera byte streams
+        median3x3            Y of each camera
+        stereo_match         census, SHD, L2R/R2L, LRCC, disparity median
+        skin_mask            Cb/Cr of the left camera (the disparity's reference)
+        disparity_band       TL < d < TH
+        hand_mask            skin AND band
+        opening              W x W structuring element
+        centroid             first-order moments / area
+    per clip (§7.2-7.3)
+        moving_average       N samples, 10.8 fixed point
+        gesture_spotting     K frames, Tm pixels
+    on the HPS (§7.4), for the trajectory file
+        orientation_symbols  8 directions
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ._check import check_int
+from .centroid import Centroid, centroid
+from .features import gesture_spotting, moving_average
+from .median import median3x3
+from .morphology import opening, structuring_element
+from .orientation import NO_SYMBOL, orientation_symbols
+from .segmentation import disparity_band, hand_mask, skin_mask
+from .stereo import check_stereo_params, stereo_match
+from .ycbcr import ycbcr422_to_444
+
+__all__ = ["PipelineParams", "FrameStages", "Trajectory", "process_frame", "track",
+           "step_symbols", "run_clip"]
+
+
+@dataclass(frozen=True)
+class PipelineParams:
+    """Every parameter of the FPGA pipeline; defaults are the thesis run-time values."""
+    census_window: int = 7            #: Wc (§6.2.1)
+    hamming_window: int = 29          #: Wh (§6.2.2)
+    max_disparity: int = 48           #: D
+    lrcc_threshold: int = 8           #: Th (eq. 21)
+    no_match_cost: int | None = None  #: left-band cost, None = census bits // 3
+    skin_cb: tuple[int, int] = (77, 127)    #: eq. 22
+    skin_cr: tuple[int, int] = (133, 173)   #: eq. 22
+    band_low: int = 33                #: TL (Fig. 58)
+    band_high: int | None = None      #: TH, None = D - 2
+    opening_shape: str = "cross"      #: structuring element (Fig. 100)
+    opening_size: int = 11            #: W
+    average_window: int = 4           #: N (eq. 27)
+    frac_bits: int = 8                #: 10.8 fixed point
+    spot_window: int = 8              #: K (Fig. 78)
+    spot_threshold: int = 30          #: Tm, pixels
+    spot_hold: int = 16               #: still frames that end a gesture
+
+    def validate(self, width: int, height: int) -> None:
+        """Raise ``ValueError`` naming the first parameter out of range."""
+        check_int("width", width, 16, 4096)
+        check_int("height", height, 16, 4096)
+        check_stereo_params(width, height, self.census_window, self.hamming_window,
+                            self.max_disparity, self.lrcc_threshold, self.no_match_cost)
+        # The cheap stages validate themselves; run them once on a tiny input.
+        probe = np.zeros((1, 1), np.uint8)
+        skin_mask(probe, probe, self.skin_cb, self.skin_cr)
+        disparity_band(probe, self.band_low, self.band_high, self.max_disparity)
+        structuring_element(self.opening_shape, self.opening_size)
+        moving_average(np.zeros((1, 2), np.int64), np.ones(1, bool), self.average_window,
+                       self.frac_bits)
+        gesture_spotting(np.zeros((1, 2), np.int64), np.ones(1, bool), self.spot_window,
+                         self.spot_threshold, self.spot_hold, self.frac_bits)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+class FrameStages(NamedTuple):
+    """Every intermediate picture of one frame, (H, W) each, and the centroid."""
+    left: np.ndarray        #: Y of the left camera after the median, uint8
+    right: np.ndarray       #: Y of the right camera after the median, uint8
+    disparity: np.ndarray   #: final disparity map, uint8, 0 = invalid
+    skin: np.ndarray        #: bool
+    band: np.ndarray        #: bool
+    hand: np.ndarray        #: skin AND band, bool
+    opened: np.ndarray      #: after the opening, bool
+    centroid: Centroid
+
+
+def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelineParams(),
+                  *, threads: int | None = None) -> FrameStages:
+    """Run one stereo frame through every pixel stage (§5.4 - §7.1).
+
+    ``left_bytes`` and ``right_bytes`` are (H, 2W) uint8 YCbCr 4:2:2 byte
+    streams (Y0 Cb Y1 Cr ...), as the cameras deliver them.
+    """
+    y_left, cb_left, cr_left = ycbcr422_to_444(left_bytes)
+    y_right, _, _ = ycbcr422_to_444(right_bytes)
+    if y_left.shape != y_right.shape:
+        raise ValueError(f"left and right frames differ in size: {y_left.shape} vs {y_right.shape}")
+    y_left, y_right = median3x3(y_left), median3x3(y_right)
+    disparity = stereo_match(y_left, y_right, census_window=params.census_window,
+                             hamming_window=params.hamming_window,
+                             max_disparity=params.max_disparity,
+                             lrcc_threshold=params.lrcc_threshold,
+                             no_match_cost=params.no_match_cost,
+                             threads=threads).disparity
+    skin = skin_mask(cb_left, cr_left, params.skin_cb, params.skin_cr)
+    band = disparity_band(disparity, params.band_low, params.band_high, params.max_disparity)
+    hand = hand_mask(skin, band)
+    opened = opening(hand, params.opening_shape, size=params.opening_size)
+    return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, centroid(opened))
+
+
+class Trajectory(NamedTuple):
+    """Per-frame features of a clip (F frames)."""
+    centroid: np.ndarray   #: (F, 2) int64 raw centroid (x, y); (0, 0) when no hand
+    area: np.ndarray       #: (F,) int64 hand pixels after the opening
+    smoothed: np.ndarray   #: (F, 2) int64 moving average, ``frac_bits`` fixed point
+    flag: np.ndarray       #: (F,) bool, gesture in progress
+    symbol: np.ndarray     #: (F,) int8 orientation symbol, NO_SYMBOL where none
+
+
+def step_symbols(smoothed, flag) -> np.ndarray:
+    """Orientation symbol of each frame's step from the previous frame (Fig. 82).
+
+    Frame n gets the symbol of ``smoothed[n-1] -> smoothed[n]`` when frames
+    n-1 and n are both flagged (the HPS only receives flagged points), and
+    ``NO_SYMBOL`` otherwise or when the position did not change.
+    """
+    smoothed = np.asarray(smoothed)
+    flag = np.asarray(flag, dtype=bool)
+    symbols = np.full(len(flag), NO_SYMBOL, dtype=np.int8)
+    if len(flag) > 1:
+        steps = orientation_symbols(smoothed)
+        both = flag[1:] & flag[:-1]
+        symbols[1:][both] = steps[both]
+    return symbols
+
+
+def track(centroids, areas, params: PipelineParams = PipelineParams()) -> Trajectory:
+    """Moving average, spotting and symbols for a clip's per-frame centroids (§7.2-7.4)."""
+    centroids = np.asarray(centroids, dtype=np.int64).reshape(-1, 2)
+    areas = np.asarray(areas, dtype=np.int64).reshape(-1)
+    if len(areas) != len(centroids):
+        raise ValueError(f"centroids ({len(centroids)}) and areas ({len(areas)}) differ in length")
+    valid = areas > 0
+    smoothed = moving_average(centroids, valid, params.average_window, params.frac_bits)
+    primed = np.logical_or.accumulate(valid) if len(valid) else valid
+    flag = gesture_spotting(smoothed, primed, params.spot_window, params.spot_threshold,
+                            params.spot_hold, params.frac_bits)
+    return Trajectory(centroids, areas, smoothed, flag, step_symbols(smoothed, flag))
+
+
+def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
+             keep: Callable[[int], bool] = lambda n: False,
+             progress: Callable[[int, int], None] | None = None,
+             threads: int | None = None) -> tuple[Trajectory, dict[int, FrameStages]]:
+    """Process every frame of a clip; return the trajectory and the stages of
+    the frames for which ``keep(n)`` is true."""
+    frames = len(left_frames)
+    if len(right_frames) != frames:
+        raise ValueError(f"left has {frames} frames but right has {len(right_frames)}")
+    height, width2 = np.shape(left_frames[0])[-2:] if frames else (16, 32)
+    params.validate(width2 // 2, height)
+    cents = np.zeros((frames, 2), np.int64)
+    areas = np.zeros(frames, np.int64)
+    kept: dict[int, FrameStages] = {}
+    for n in range(frames):
+        stages = process_frame(left_frames[n], right_frames[n], params, threads=threads)
+        cents[n] = stages.centroid.x, stages.centroid.y
+        areas[n] = stages.centroid.area
+        if keep(n):
+            kept[n] = stages
+        if progress is not None:
+            progress(n + 1, frames)
+    return track(cents, areas, params), kept

@@ -1,0 +1,690 @@
+"""Synthetic stereo scene renderer: a person performing one of the seven gestures.
+
+The scene imitates the set-up of the thesis (Guerrero-Balaguera 2016): two
+parallel cameras looking at a person whose hand, held in front of the chest,
+draws a gesture (Fig. 16) with an amplitude of about 200 px at 640x480
+(Fig. 77). It is a stack of fronto-parallel layers, each with one integer
+disparity, rendered separately for the two cameras and composed back to front
+(larger disparity = nearer = drawn later)::
+
+    layer        disparity (px)  colour                      why
+    background   4..10 (seeded)  textured, mostly non-skin   far wall
+    hair         = face          dark, non-skin              top of the head
+    face (+neck) 24              skin, textured ellipse      skin but OUTSIDE the band 33 < d < 46
+    torso        28              non-skin clothing, textured the hand's backdrop
+    hand         40              skin, textured palm+fingers skin AND inside the band
+
+A left-image point ``x`` of a layer with disparity ``d`` appears at ``x - d`` in
+the right image (the matcher's convention). Every layer is textured at several
+scales, because the census matcher needs texture; the hand's texture is fixed
+to the hand, so it moves rigidly and both cameras see the same pattern.
+
+The cameras differ by independent Gaussian noise (sigma 2 on Y, 1 on chroma,
+added, rounded, to the 4:2:2 byte stream) and a small illumination difference
+(right camera ``Y' = 0.96 Y + 3``). The hand is kept entirely inside both views
+(its left edge at least ``hand_disparity + 4`` px from the image's left edge);
+when the seeded amplitude does not fit (e.g. ``back`` at 640x480) the rest
+position moves, and the amplitude shrinks only if that is not enough.
+
+Geometry scales with ``min(width / 640, height / 480)``; disparities do not,
+because the segmentation thresholds are in pixels.
+
+Randomness: the scene (person, clothes, textures, background disparity) depends
+on ``seed`` only, so one seed is one "person and room" for all seven gestures;
+the timing, amplitude (+-15 %), aspect, time warp and rest position depend on
+``(seed, gesture)``; the sensor noise on ``(seed, gesture, frame)``.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import numbers
+from dataclasses import dataclass
+from statistics import NormalDist
+
+import numpy as np
+
+from sim.clip import MAX_DISPARITY, Clip, round_truth
+from sim.gesture_shapes import gesture_id, gesture_path, random_time_warp
+from sim.model.ycbcr import ycbcr444_to_422
+
+__all__ = [
+    "REFERENCE_WIDTH", "REFERENCE_HEIGHT", "LAYER_LABELS", "NOISE_SIGMA_Y",
+    "NOISE_SIGMA_C", "RIGHT_Y_GAIN", "RIGHT_Y_OFFSET", "StereoScene", "render_clip",
+]
+
+REFERENCE_WIDTH, REFERENCE_HEIGHT = 640, 480
+#: Layer id of each pixel in :meth:`StereoScene.label_map`.
+LAYER_LABELS = {"background": 0, "torso": 1, "hair": 2, "face": 3, "hand": 4}
+NOISE_SIGMA_Y = 2.0
+NOISE_SIGMA_C = 1.0
+RIGHT_Y_GAIN = 0.96
+RIGHT_Y_OFFSET = 3.0
+
+_AMPLITUDE_PX = 200.0          # at the reference size (thesis Fig. 77)
+_AMPLITUDE_SPREAD = 0.15
+_EDGE_MARGIN_PX = 4            # hand kept this far inside the image (and the right view)
+_PRE_REST_S = (0.5, 1.0)       # 15-30 frames at 30 fps
+_MOTION_S = (40 / 30, 80 / 30)  # 40-80 frames at 30 fps
+_TIME_WARP_STRENGTH = 0.1
+_ASPECT_RANGE = (0.9, 1.1)
+
+# Independent random streams (SeedSequence entropy words).
+_STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = range(1, 6)
+_STREAM_MOTION, _STREAM_NOISE = 6, 7
+
+# Clothing colours (Cb, Cr, mean Y): every one fails the skin box (Cr < 133 or Cb > 127).
+_SHIRT_PALETTE = ((150, 112, 90), (112, 104, 110), (128, 124, 70), (142, 100, 120),
+                  (138, 118, 55), (156, 128, 100))
+# Furniture / poster colours on the wall, also outside the skin box.
+_WALL_PALETTE = ((128, 128), (140, 110), (115, 100), (150, 120), (120, 126), (135, 95),
+                 (100, 118))
+
+_SKIN_CB, _SKIN_CR = (92, 116), (141, 165)   # well inside the box Cb 77..127, Cr 133..173
+
+
+# --------------------------------------------------------------------------- textures
+
+def _noise_field(rng: np.random.Generator, height: int, width: int, cell: float) -> np.ndarray:
+    """Smooth random field with features of about ``cell`` pixels, unit std, float32.
+
+    Value noise: normal samples on a grid of pitch ``cell`` (random phase),
+    interpolated with a smoothstep; ``cell <= 1`` gives white noise.
+    """
+    if cell <= 1.0:
+        return rng.standard_normal((height, width), dtype=np.float32)
+    phase_y, phase_x = rng.uniform(0.0, cell, size=2)
+    pos_y = (np.arange(height) + phase_y) / cell
+    pos_x = (np.arange(width) + phase_x) / cell
+    iy, ix = pos_y.astype(np.int64), pos_x.astype(np.int64)
+    fy, fx = pos_y - iy, pos_x - ix
+    fy, fx = fy * fy * (3 - 2 * fy), fx * fx * (3 - 2 * fx)
+    coarse = rng.standard_normal((iy[-1] + 2, ix[-1] + 2))
+    rows = coarse[iy] * (1 - fy)[:, None] + coarse[iy + 1] * fy[:, None]
+    field = rows[:, ix] * (1 - fx) + rows[:, ix + 1] * fx
+    field -= field.mean()
+    std = field.std()
+    return (field / std if std > 0 else field).astype(np.float32)
+
+
+def _fractal(rng: np.random.Generator, height: int, width: int, scale: float,
+             cells: tuple[float, ...], weights: tuple[float, ...]) -> np.ndarray:
+    """Weighted sum of noise fields; ``cells`` are in reference pixels (scaled by ``scale``)."""
+    out = np.zeros((height, width), dtype=np.float32)
+    for cell, weight in zip(cells, weights):
+        out += np.float32(weight) * _noise_field(rng, height, width, max(1.0, cell * scale))
+    return out
+
+
+def _ellipse(xs, ys, cx, cy, ax, ay) -> np.ndarray:
+    """Normalised squared radius of points w.r.t. an axis-aligned ellipse (<= 1 inside)."""
+    return ((xs - cx) / ax) ** 2 + ((ys - cy) / ay) ** 2
+
+
+def _segment_distance(xs, ys, x0, y0, x1, y1) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of points to the segment (x0,y0)-(x1,y1) and the position t along it."""
+    dx, dy = x1 - x0, y1 - y0
+    t = np.clip(((xs - x0) * dx + (ys - y0) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
+    return np.hypot(xs - (x0 + t * dx), ys - (y0 + t * dy)), t
+
+
+_NOISE_TABLE_SIZE = 1 << 16
+
+
+@functools.lru_cache(maxsize=None)
+def _rounded_gaussian_table(sigma: float) -> np.ndarray:
+    """Inverse-CDF table of ``rint(sigma * z)``, ``z`` standard normal.
+
+    Entry ``i`` is the value of the rounded Gaussian at probability
+    ``(i + 0.5) / 65536``, so a uniform 16-bit index draws the rounded noise
+    (tails cut at about 4.2 sigma).
+    """
+    if sigma <= 0:
+        return np.zeros(_NOISE_TABLE_SIZE, np.int16)
+    dist = NormalDist(0.0, sigma)
+    k_max = math.ceil(6 * sigma) + 1
+    values = np.arange(-k_max, k_max + 1)
+    upper = np.array([dist.cdf(k + 0.5) for k in values])   # P(rint(sigma z) <= k)
+    probability = (np.arange(_NOISE_TABLE_SIZE) + 0.5) / _NOISE_TABLE_SIZE
+    index = np.minimum(np.searchsorted(upper, probability), values.size - 1)
+    table = values[index].astype(np.int16)
+    table.flags.writeable = False
+    return table
+
+
+def _to_u8(values: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(values), 0, 255).astype(np.uint8)
+
+
+# ----------------------------------------------------------------------------- layers
+
+@dataclass
+class _Layer:
+    """A fronto-parallel layer in left-image coordinates (a bounding box of it)."""
+
+    name: str
+    disparity: int
+    y0: int
+    x0: int
+    mask: np.ndarray           # (h, w) bool
+    ycc: np.ndarray            # (3, h, w) float32: Y, Cb, Cr
+
+    @property
+    def label(self) -> int:
+        return LAYER_LABELS[self.name]
+
+
+def _check_int(name: str, value, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
+            or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
+    return int(value)
+
+
+class StereoScene:
+    """A rendered-on-demand stereo scene of one gesture (see the module docstring).
+
+    Parameters
+    ----------
+    gesture : str
+        One of :data:`sim.gesture_shapes.GESTURE_NAMES`.
+    seed : int in [0, 2**63 - 1]
+    width : even int in [96, 4096]
+    height : even int in [64, 4096]
+    fps : int in [5, 240]
+        Frame rate; the seeded durations (pre-rest 0.5-1 s, motion 1.33-2.67 s,
+        post-rest 0.5-1 s, i.e. 15-30 / 40-80 / 15-30 frames at 30 fps) scale with it.
+    hand_disparity, face_disparity, torso_disparity : int in [0, 47]
+    background_disparity : int in [0, 47] or None
+        ``None``: seeded in [4, 10].
+    n_pre_rest, n_motion, n_post_rest : int or None
+        Frame counts overriding the seeded ones (``n_motion >= 2``; the rests may be 0).
+    noise : bool
+        Add the sensor noise in :meth:`stereo_frame`.
+
+    Attributes
+    ----------
+    frames : int
+    motion_span : (int, int)
+        First and last (inclusive) frame of the motion.
+    hand_anchor : (frames, 2) int64
+        Palm centre ``(x, y)`` of the hand in the left image, per frame.
+    amplitude : float
+        Gesture amplitude in pixels (may be reduced so that the hand stays in view).
+    rest : (float, float)
+        Rest position of the palm centre.
+    disparities : dict
+        Layer name -> disparity.
+
+    Notes
+    -----
+    The static layers are composed once per camera; each frame only pastes the
+    hand, which sits at integer pixel positions (so its texture moves rigidly and
+    its truth centroid is exact). Every frame can be rendered on its own
+    (:meth:`stereo_frame`), and the noise-free views (:meth:`views444`), the
+    per-pixel layer labels (:meth:`label_map`) and the true disparity maps
+    (:meth:`disparity_map`) serve as ground truth for the stereo and
+    segmentation stages.
+    """
+
+    def __init__(self, gesture: str, seed: int, width: int = REFERENCE_WIDTH,
+                 height: int = REFERENCE_HEIGHT, *, fps: int = 30, hand_disparity: int = 40,
+                 face_disparity: int = 24, torso_disparity: int = 28,
+                 background_disparity: int | None = None, n_pre_rest: int | None = None,
+                 n_motion: int | None = None, n_post_rest: int | None = None,
+                 noise: bool = True) -> None:
+        self.gesture_id = gesture_id(gesture)
+        self.gesture = gesture
+        self.seed = _check_int("seed", seed, 0, 2 ** 63 - 1)
+        self.width = _check_int("width", width, 96, 4096)
+        self.height = _check_int("height", height, 64, 4096)
+        if self.width % 2:
+            raise ValueError(f"width must be even, in [96, 4096] (4:2:2 pixel pairs), "
+                             f"got {width}")
+        if self.height % 2:
+            raise ValueError(f"height must be even, in [64, 4096], got {height}")
+        self.fps = _check_int("fps", fps, 5, 240)
+        top = MAX_DISPARITY - 1
+        self.disparities = {
+            "hand": _check_int("hand_disparity", hand_disparity, 0, top),
+            "face": _check_int("face_disparity", face_disparity, 0, top),
+            "torso": _check_int("torso_disparity", torso_disparity, 0, top),
+        }
+        self.noise = bool(noise)
+        self.scale = min(self.width / REFERENCE_WIDTH, self.height / REFERENCE_HEIGHT)
+
+        layout = self._rng(_STREAM_LAYOUT)
+        if background_disparity is None:
+            background_disparity = int(layout.integers(4, 11))
+        self.disparities["background"] = _check_int("background_disparity",
+                                                    background_disparity, 0, top)
+        self.disparities["hair"] = self.disparities["face"]
+        self._layout(layout)
+
+        self._build_hand_sprite()
+        self._plan_motion(n_pre_rest, n_motion, n_post_rest)
+        self._build_static_layers()
+
+    # ---------------------------------------------------------------- set-up
+
+    def _rng(self, *words: int) -> np.random.Generator:
+        return np.random.default_rng([self.seed, *words])
+
+    def _layout(self, rng: np.random.Generator) -> None:
+        """Where the person stands (reference proportions, seeded jitter)."""
+        s, w, h = self.scale, self.width, self.height
+        self.person_x = w / 2 + rng.uniform(-12, 12) * s
+        self.face_center = (self.person_x + rng.uniform(-4, 4) * s,
+                            0.23 * h + rng.uniform(-6, 6) * s)
+        self.face_axes = (rng.uniform(46, 54) * s, rng.uniform(60, 68) * s)
+        self.shoulder_y = 0.42 * h + rng.uniform(-6, 6) * s
+        self.torso_half_width = rng.uniform(150, 185) * s
+        self.chest = (self.person_x + rng.uniform(-20, 20) * s,
+                      0.66 * h + rng.uniform(-12, 12) * s)
+
+    def _build_hand_sprite(self) -> None:
+        """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px tall."""
+        s = self.scale
+        rng = self._rng(_STREAM_HAND)
+        x_lo, x_hi = math.floor(-42 * s) - 1, math.ceil(32 * s) + 1
+        y_lo, y_hi = math.floor(-60 * s) - 1, math.ceil(26 * s) + 1
+        ys, xs = np.mgrid[y_lo:y_hi + 1, x_lo:x_hi + 1].astype(np.float32)
+        shape = xs.shape
+
+        shade = np.zeros(shape, np.float32)        # darkening towards the outline
+        palm_r2 = _ellipse(xs, ys, 0.0, 0.0, 24 * s, 23 * s)
+        palm = palm_r2 <= 1.0
+        shade[palm] = 24 * palm_r2[palm] ** 2
+        fingers = np.zeros(shape, bool)
+        creases = np.zeros(shape, bool)
+        finger_radius = max(4.6 * s, 0.8)
+        # index, middle, ring, little: base x, length (reference px)
+        for base_x, length in ((-15.5, 30.0), (-5.2, 34.0), (5.2, 31.0), (15.5, 25.0)):
+            base_y = -23 * math.sqrt(max(0.0, 1 - (base_x / 24) ** 2)) + 7
+            tip_x = base_x * 1.25
+            dist, t = _segment_distance(xs, ys, base_x * s, base_y * s, tip_x * s,
+                                        (base_y - length) * s)
+            inside = (dist <= finger_radius) & ~palm
+            fingers |= inside
+            shade[inside] = 34 * (dist[inside] / finger_radius) ** 2
+            for joint in (0.45, 0.75):           # knuckle lines move with the hand
+                creases |= inside & (np.abs(t - joint) * length * s < max(0.7 * s, 0.5))
+        dist, _ = _segment_distance(xs, ys, -17 * s, 9 * s, -33 * s, -13 * s)
+        thumb = (dist <= max(6.0 * s, 1.0)) & ~palm & ~fingers
+        shade[thumb] = 30 * (dist[thumb] / max(6.0 * s, 1.0)) ** 2
+        for cx, cy, radius in ((-30.0, -30.0, 34.0), (28.0, -26.0, 36.0), (-2.0, 40.0, 30.0)):
+            ring = np.abs(np.hypot(xs - cx * s, ys - cy * s) - radius * s)
+            creases |= palm & (palm_r2 < 0.75) & (ring < max(0.8 * s, 0.5))
+
+        mask = palm | fingers | thumb
+        texture = _fractal(rng, *shape, s, (10, 5, 2.5, 1), (7.0, 6.0, 6.0, 3.0))
+        low = _fractal(rng, *shape, s, (16,), (1.0,))
+        y_plane = 174 + texture - shade - 32 * creases
+        cb_plane = np.clip(104 + 3 * low, *_SKIN_CB)
+        cr_plane = np.clip(153 + 3 * low, *_SKIN_CR)
+        ycc = np.stack([y_plane, cb_plane, cr_plane]).astype(np.float32)
+
+        rows, cols = np.nonzero(mask)
+        top, bottom, left, right = rows.min(), rows.max(), cols.min(), cols.max()
+        self._sprite_mask = mask[top:bottom + 1, left:right + 1]
+        sprite = ycc[:, top:bottom + 1, left:right + 1]
+        right_sprite = sprite.copy()
+        right_sprite[0] = RIGHT_Y_GAIN * right_sprite[0] + RIGHT_Y_OFFSET
+        self._sprite_left = _to_u8(sprite)
+        self._sprite_right = _to_u8(right_sprite)
+        # Offset of the sprite's top-left pixel from the palm centre.
+        self._sprite_offset = (int(y_lo + top), int(x_lo + left))
+        self.hand_size = (int(right - left + 1), int(bottom - top + 1))   # (w, h) px
+
+    def _plan_motion(self, n_pre_rest, n_motion, n_post_rest) -> None:
+        """Timing, amplitude, aspect and rest position; keeps the whole hand in view."""
+        rng = self._rng(_STREAM_MOTION, self.gesture_id)
+        rate = self.fps / 30.0
+
+        def frames_in(span_s: tuple[float, float], floor: int) -> int:
+            lo, hi = (max(floor, round(v * 30 * rate)) for v in span_s)
+            return int(rng.integers(lo, hi + 1))
+
+        pre = frames_in(_PRE_REST_S, 1)
+        motion = frames_in(_MOTION_S, 2)
+        post = frames_in(_PRE_REST_S, 1)
+        pre = pre if n_pre_rest is None else _check_int("n_pre_rest", n_pre_rest, 0, 10000)
+        motion = motion if n_motion is None else _check_int("n_motion", n_motion, 2, 10000)
+        post = post if n_post_rest is None else _check_int("n_post_rest", n_post_rest, 0, 10000)
+        self.n_pre_rest, self.n_motion, self.n_post_rest = pre, motion, post
+        self.frames = pre + motion + post
+        self.motion_span = (pre, pre + motion - 1)
+
+        amplitude = _AMPLITUDE_PX * self.scale * (1 + rng.uniform(-1, 1) * _AMPLITUDE_SPREAD)
+        self.aspect = float(rng.uniform(*_ASPECT_RANGE))
+        warp = random_time_warp(motion + 2, rng, strength=_TIME_WARP_STRENGTH)
+        path = gesture_path(self.gesture, motion + 2, aspect=self.aspect, time_warp=warp)
+        extent = gesture_path(self.gesture, 257, aspect=self.aspect, speed_profile="constant")
+        lo, hi = extent.min(axis=0), extent.max(axis=0)
+
+        # Palm-centre range that keeps the sprite inside the image; on the left the
+        # margin includes the hand disparity so the right camera sees the whole hand.
+        off_y, off_x = self._sprite_offset
+        sprite_h, sprite_w = self._sprite_mask.shape
+        room_lo = np.array([self.disparities["hand"] + _EDGE_MARGIN_PX - off_x,
+                            _EDGE_MARGIN_PX - off_y], float)
+        room_hi = np.array([self.width - 1 - _EDGE_MARGIN_PX - (off_x + sprite_w - 1),
+                            self.height - 1 - _EDGE_MARGIN_PX - (off_y + sprite_h - 1)], float)
+        room = room_hi - room_lo - 1.0                  # 1 px slack for rounding
+        span = hi - lo
+        for axis, name in ((0, "width"), (1, "height")):
+            if room[axis] <= 0 or (span[axis] > 0 and room[axis] / span[axis]
+                                   < 0.25 * _AMPLITUDE_PX * self.scale):
+                size = self.width if axis == 0 else self.height
+                raise ValueError(
+                    f"{name} {size} leaves no room for the {self.gesture} gesture with "
+                    f"hand_disparity {self.disparities['hand']}; use a larger {name}")
+            if span[axis] > 0:
+                amplitude = min(amplitude, room[axis] / span[axis])
+        self.amplitude = float(amplitude)
+        rest = np.clip(np.array(self.chest), room_lo + 0.5 - amplitude * lo,
+                       room_hi - 0.5 - amplitude * hi)
+        self.rest = (float(rest[0]), float(rest[1]))
+
+        anchors = np.empty((self.frames, 2))
+        anchors[:] = rest
+        anchors[pre:pre + motion] = rest + amplitude * path[1:-1]
+        self.hand_anchor = np.rint(anchors).astype(np.int64)
+
+    def _build_static_layers(self) -> None:
+        """Background, hair, face and torso, composed once per camera."""
+        h = self.height
+        canvas_w = self.width + MAX_DISPARITY   # right view reads x + d < width + 48
+        layers = [self._background(canvas_w), *self._head(), self._torso(canvas_w)]
+        order = sorted(layers, key=lambda layer: layer.disparity)   # stable: far to near
+        self._static = {}
+        self._static_labels = {}
+        self._static_disparity = {}
+        for view in ("left", "right"):
+            image = np.zeros((3, h, self.width), np.float32)
+            labels = np.zeros((h, self.width), np.uint8)
+            disparity = np.zeros((h, self.width), np.uint8)
+            for layer in order:
+                shift = layer.disparity if view == "right" else 0
+                region = self._view_region(layer, shift)
+                if region is None:
+                    continue
+                (vy, vx), (ly, lx) = region
+                mask = layer.mask[ly, lx]
+                image[:, vy, vx] = np.where(mask, layer.ycc[:, ly, lx], image[:, vy, vx])
+                labels[vy, vx] = np.where(mask, layer.label, labels[vy, vx])
+                disparity[vy, vx] = np.where(mask, layer.disparity, disparity[vy, vx])
+            if view == "right":
+                image[0] = RIGHT_Y_GAIN * image[0] + RIGHT_Y_OFFSET
+            self._static[view] = _to_u8(image)
+            self._static_labels[view] = labels
+            self._static_disparity[view] = disparity
+
+    def _view_region(self, layer: _Layer, shift: int):
+        """Slices of the view and of the layer where the layer (shifted by -shift) lands."""
+        lh, lw = layer.mask.shape
+        vx0, vy0 = layer.x0 - shift, layer.y0
+        x_start, x_end = max(vx0, 0), min(vx0 + lw, self.width)
+        y_start, y_end = max(vy0, 0), min(vy0 + lh, self.height)
+        if x_start >= x_end or y_start >= y_end:
+            return None
+        return ((slice(y_start, y_end), slice(x_start, x_end)),
+                (slice(y_start - vy0, y_end - vy0), slice(x_start - vx0, x_end - vx0)))
+
+    def _background(self, canvas_w: int) -> _Layer:
+        """A far wall: multi-scale texture and a few posters / pieces of furniture."""
+        s, h = self.scale, self.height
+        rng = self._rng(_STREAM_BACKGROUND)
+        luma = 118 + _fractal(rng, h, canvas_w, s, (96, 48, 24, 12, 6, 3, 1),
+                              (16, 14, 11, 9, 8, 7, 4))
+        cb = 127 + 10 * _fractal(rng, h, canvas_w, s, (160, 48), (0.8, 0.6))
+        cr = 116 + 7 * _fractal(rng, h, canvas_w, s, (160, 48), (0.8, 0.6))
+        ys, xs = np.mgrid[0:h, 0:canvas_w]
+        for _ in range(int(rng.integers(3, 7))):
+            rw, rh = rng.uniform(60, 220) * s, rng.uniform(50, 200) * s
+            rx, ry = rng.uniform(-rw / 2, canvas_w - rw / 2), rng.uniform(-rh / 2, h - rh / 2)
+            inside = (xs >= rx) & (xs < rx + rw) & (ys >= ry) & (ys < ry + rh)
+            pcb, pcr = _WALL_PALETTE[int(rng.integers(len(_WALL_PALETTE)))]
+            level = rng.uniform(50, 200)
+            luma = np.where(inside, level + 0.6 * (luma - 118), luma)
+            cb = np.where(inside, pcb + 0.3 * (cb - 127), cb)
+            cr = np.where(inside, pcr + 0.3 * (cr - 116), cr)
+        ycc = np.stack([luma, cb, cr]).astype(np.float32)
+        return _Layer("background", self.disparities["background"], 0, 0,
+                      np.ones((h, canvas_w), bool), ycc)
+
+    def _head(self) -> list[_Layer]:
+        """Hair, then the skin-coloured face and neck (same disparity)."""
+        s = self.scale
+        rng = self._rng(_STREAM_FACE)
+        fcx, fcy = self.face_center
+        fa, fb = self.face_axes
+        neck_half = 20 * s
+        x0 = math.floor(fcx - fa - 10 * s) - 1
+        x1 = math.ceil(fcx + fa + 10 * s) + 1
+        y0 = math.floor(fcy - fb - 14 * s) - 1
+        y1 = math.ceil(self.shoulder_y + 24 * s) + 1
+        ys, xs = np.mgrid[y0:y1 + 1, x0:x1 + 1].astype(np.float32)
+        shape = xs.shape
+
+        r2 = _ellipse(xs, ys, fcx, fcy, fa, fb)
+        face = r2 <= 1.0
+        neck = (np.abs(xs - fcx) <= neck_half) & (ys >= fcy + 0.5 * fb) & \
+               (ys <= self.shoulder_y + 24 * s)
+        hair = (_ellipse(xs, ys, fcx, fcy - 6 * s, fa + 6 * s, fb + 10 * s) <= 1.0) & \
+               (ys <= fcy - 0.2 * fb)
+
+        texture = _fractal(rng, *shape, s, (16, 8, 4, 2, 1), (6, 6, 5, 4, 2))
+        low = _fractal(rng, *shape, s, (24,), (1.0,))
+        luma = 162 + texture - 26 * np.clip(r2, 0, 1) ** 2
+        cr_extra = np.zeros(shape, np.float32)
+        for side in (-1, 1):
+            ex, ey = fcx + side * 0.38 * fa, fcy - 0.12 * fb
+            luma = np.where(_ellipse(xs, ys, ex, ey, 0.2 * fa, 0.09 * fb) <= 1, 60, luma)
+            brow = _ellipse(xs, ys, ex, fcy - 0.3 * fb, 0.24 * fa, 0.045 * fb) <= 1
+            luma = np.where(brow, 75 + 0.5 * texture, luma)
+        nose = _ellipse(xs, ys, fcx, fcy + 0.18 * fb, 0.1 * fa, 0.16 * fb) <= 1
+        luma = luma - 18 * nose
+        mouth = _ellipse(xs, ys, fcx, fcy + 0.52 * fb, 0.32 * fa, 0.07 * fb) <= 1
+        luma = np.where(mouth, 110 + 0.5 * texture, luma)
+        cr_extra[mouth] = 8
+        luma = np.where(neck & ~face, luma - 20, luma)     # the neck is in the chin's shadow
+        skin = np.stack([luma, np.clip(106 + 3 * low, *_SKIN_CB),
+                         np.clip(149 + 3 * low + cr_extra, *_SKIN_CR)]).astype(np.float32)
+        hair_ycc = np.stack([45 + 1.6 * texture, 128 + 2 * low, 121 + 2 * low]).astype(np.float32)
+        d = self.disparities["face"]
+        return [_Layer("hair", d, y0, x0, hair, hair_ycc),
+                _Layer("face", d, y0, x0, face | neck, skin)]
+
+    def _torso(self, canvas_w: int) -> _Layer:
+        """Clothing: a superellipse (flat top, rounded shoulders), non-skin, textured."""
+        s, h = self.scale, self.height
+        rng = self._rng(_STREAM_TORSO)
+        half = self.torso_half_width
+        x0 = max(0, math.floor(self.person_x - half) - 1)
+        x1 = min(canvas_w - 1, math.ceil(self.person_x + half) + 1)
+        y0 = max(0, math.floor(self.shoulder_y) - 1)
+        ys, xs = np.mgrid[y0:h, x0:x1 + 1].astype(np.float32)
+        depth = h - self.shoulder_y + 80 * s
+        centre_y = self.shoulder_y + depth
+        mask = (((xs - self.person_x) / half) ** 4 + ((ys - centre_y) / depth) ** 4 <= 1.0)
+        cb0, cr0, luma0 = _SHIRT_PALETTE[int(rng.integers(len(_SHIRT_PALETTE)))]
+        luma = luma0 + _fractal(rng, *xs.shape, s, (40, 12, 4, 2, 1), (8, 6, 6, 5, 3))
+        period = max(4.0, rng.uniform(10, 24) * s)
+        pattern = int(rng.integers(3))        # 0 plain, 1 stripes, 2 checks
+        if pattern >= 1:
+            luma = luma + 14 * np.sign(np.sin(2 * np.pi * xs / period))
+        if pattern == 2:
+            luma = luma + 14 * np.sign(np.sin(2 * np.pi * ys / period))
+        low = _fractal(rng, *xs.shape, s, (64,), (1.0,))
+        ycc = np.stack([luma, cb0 + 3 * low, cr0 + 3 * low]).astype(np.float32)
+        return _Layer("torso", self.disparities["torso"], y0, x0, mask, ycc)
+
+    # ---------------------------------------------------------------- per frame
+
+    def _check_frame(self, frame) -> int:
+        return _check_int("frame", frame, 0, self.frames - 1)
+
+    def _hand_region(self, frame: int, shift: int):
+        """View and sprite slices of the hand in a view whose layer shift is ``shift``."""
+        ax, ay = self.hand_anchor[frame]
+        layer = _Layer("hand", self.disparities["hand"], int(ay) + self._sprite_offset[0],
+                       int(ax) + self._sprite_offset[1], self._sprite_mask, None)
+        return self._view_region(layer, shift)
+
+    def views444(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
+        """Noise-free left and right images of a frame, each (3, H, W) uint8 (Y, Cb, Cr)."""
+        frame = self._check_frame(frame)
+        views = []
+        for view, sprite, shift in (("left", self._sprite_left, 0),
+                                    ("right", self._sprite_right, self.disparities["hand"])):
+            image = self._static[view].copy()
+            region = self._hand_region(frame, shift)
+            if region is not None:
+                (vy, vx), (ly, lx) = region
+                mask = self._sprite_mask[ly, lx]
+                image[:, vy, vx] = np.where(mask, sprite[:, ly, lx], image[:, vy, vx])
+            views.append(image)
+        return views[0], views[1]
+
+    def _check_view(self, view) -> int:
+        """Layer shift of a view: 0 for the left camera, the disparity for the right."""
+        if view not in ("left", "right"):
+            raise ValueError(f"view must be 'left' or 'right', got {view!r}")
+        return self.disparities["hand"] if view == "right" else 0
+
+    def hand_mask(self, frame: int, view: str = "left") -> np.ndarray:
+        """(H, W) bool: the hand's pixels in the left (or right) image."""
+        frame = self._check_frame(frame)
+        mask = np.zeros((self.height, self.width), bool)
+        region = self._hand_region(frame, self._check_view(view))
+        if region is not None:
+            (vy, vx), (ly, lx) = region
+            mask[vy, vx] = self._sprite_mask[ly, lx]
+        return mask
+
+    def label_map(self, frame: int, view: str = "left") -> np.ndarray:
+        """(H, W) uint8: the :data:`LAYER_LABELS` id of each pixel of a view.
+
+        Comparing the two views' maps tells which pixels are occluded in the other
+        camera.
+        """
+        hand = self.hand_mask(frame, view)
+        labels = self._static_labels[view].copy()
+        labels[hand] = LAYER_LABELS["hand"]
+        return labels
+
+    def disparity_map(self, frame: int, view: str = "left") -> np.ndarray:
+        """(H, W) uint8: the true disparity of each pixel (ground truth for the matcher).
+
+        A left pixel ``x`` with disparity ``d`` shows the same point as the right
+        pixel ``x - d``; for ``view="right"`` it is the disparity of the layer seen
+        at each right pixel.
+        """
+        hand = self.hand_mask(frame, view)
+        disparity = self._static_disparity[view].copy()
+        disparity[hand] = self.disparities["hand"]
+        return disparity
+
+    def hand_truth(self, frame: int) -> tuple[float, float, int]:
+        """Exact centroid ``(x, y)`` and pixel count of the hand in the left image."""
+        frame = self._check_frame(frame)
+        region = self._hand_region(frame, 0)
+        if region is None:
+            return math.nan, math.nan, 0
+        (vy, vx), (ly, lx) = region
+        rows, cols = np.nonzero(self._sprite_mask[ly, lx])
+        if rows.size == 0:
+            return math.nan, math.nan, 0
+        return float(cols.mean() + vx.start), float(rows.mean() + vy.start), int(rows.size)
+
+    def stereo_frame(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
+        """The two cameras' 4:2:2 byte streams of a frame, each (H, 2W) uint8.
+
+        With ``noise`` the sensor noise is added to the streams (sigma
+        :data:`NOISE_SIGMA_Y` on the Y bytes, :data:`NOISE_SIGMA_C` on the chroma
+        bytes), independently per camera and per frame.
+        """
+        left444, right444 = self.views444(frame)
+        streams = [ycbcr444_to_422(*left444), ycbcr444_to_422(*right444)]
+        if not self.noise:
+            return streams[0], streams[1]
+        rng = self._rng(_STREAM_NOISE, self.gesture_id, frame)
+        table_y = _rounded_gaussian_table(NOISE_SIGMA_Y)
+        table_c = _rounded_gaussian_table(NOISE_SIGMA_C)
+        noisy = []
+        for stream in streams:
+            # The stream is integer, so rint(stream + sigma*z) = stream + rint(sigma*z):
+            # draw the rounded noise directly by an inverse-CDF table (4x faster
+            # than standard_normal here).
+            index = rng.integers(0, _NOISE_TABLE_SIZE, size=stream.shape, dtype=np.uint16)
+            noise = np.empty(stream.shape, np.int16)
+            noise[:, 0::2] = table_y[index[:, 0::2]]
+            noise[:, 1::2] = table_c[index[:, 1::2]]
+            noise += stream
+            noisy.append(np.clip(noise, 0, 255).astype(np.uint8))
+        return noisy[0], noisy[1]
+
+    def parameters(self) -> dict:
+        """JSON-serialisable description of the scene (stored as ``renderer`` in a clip)."""
+        return {
+            "name": "sim.render", "version": 1,
+            "reference_size": [REFERENCE_WIDTH, REFERENCE_HEIGHT],
+            "scale": round(self.scale, 6),
+            "torso_disparity": self.disparities["torso"],
+            "background_disparity": self.disparities["background"],
+            "amplitude_px": round(self.amplitude, 3),
+            "aspect": round(self.aspect, 4),
+            "speed_profile": "smooth",
+            "time_warp_strength": _TIME_WARP_STRENGTH,
+            "rest_position": [round(self.rest[0], 3), round(self.rest[1], 3)],
+            "pre_rest_frames": self.n_pre_rest,
+            "motion_length": self.n_motion,
+            "post_rest_frames": self.n_post_rest,
+            "hand_size_px": list(self.hand_size),
+            "noise": self.noise,
+            "noise_sigma_y": NOISE_SIGMA_Y, "noise_sigma_c": NOISE_SIGMA_C,
+            "right_y_gain": RIGHT_Y_GAIN, "right_y_offset": RIGHT_Y_OFFSET,
+        }
+
+
+def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
+                height: int = REFERENCE_HEIGHT, *, fps: int = 30, hand_disparity: int = 40,
+                face_disparity: int = 24, torso_disparity: int = 28,
+                background_disparity: int | None = None, n_pre_rest: int | None = None,
+                n_motion: int | None = None, n_post_rest: int | None = None,
+                noise: bool = True) -> Clip:
+    """Render a synthetic stereo clip of one gesture (thesis Figs. 16 and 77).
+
+    The parameters are those of :class:`StereoScene`. The clip's truth is the
+    exact centroid and area of the hand's pixels in the left image, per frame.
+
+    Returns
+    -------
+    Clip
+        ``left``/``right`` are (frames, height, 2*width) uint8 YCbCr 4:2:2 streams.
+
+    Raises
+    ------
+    ValueError
+        A parameter out of range (the message names it and the range).
+    """
+    scene = StereoScene(gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
+                        face_disparity=face_disparity, torso_disparity=torso_disparity,
+                        background_disparity=background_disparity, n_pre_rest=n_pre_rest,
+                        n_motion=n_motion, n_post_rest=n_post_rest, noise=noise)
+    shape = (scene.frames, scene.height, 2 * scene.width)
+    left = np.empty(shape, np.uint8)
+    right = np.empty(shape, np.uint8)
+    hand_xy = np.empty((scene.frames, 2))
+    hand_area = np.empty(scene.frames, np.int64)
+    for frame in range(scene.frames):
+        left[frame], right[frame] = scene.stereo_frame(frame)
+        x, y, area = scene.hand_truth(frame)
+        hand_xy[frame] = (x, y)
+        hand_area[frame] = area
+    return Clip(gesture=gesture, seed=scene.seed, fps=scene.fps,
+                hand_disparity=scene.disparities["hand"],
+                face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
+                left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
+                renderer=scene.parameters())

@@ -1,0 +1,3 @@
+from stereogest.cli import main
+
+raise SystemExit(main())

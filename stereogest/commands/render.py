@@ -1,0 +1,54 @@
+"""Render a synthetic stereo clip of one gesture.
+
+A person in front of a textured wall performs one of the seven gestures of the
+thesis (Fig. 16) with a skin-coloured, textured hand held in front of the chest.
+Both cameras are rendered (YCbCr 4:2:2 byte streams, sensor noise, a small
+illumination difference) and written as a clip directory: clip.json, left.npy,
+right.npy and truth.csv (the exact hand centroid of every frame).
+"""
+from __future__ import annotations
+
+import argparse
+
+from sim.gesture_shapes import GESTURE_NAMES
+
+NAME = "render"
+HELP = "render a synthetic stereo clip of one gesture"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    # default=SUPPRESS keeps "(default: None)" out of the help of required options.
+    parser.add_argument("--gesture", required=True, choices=GESTURE_NAMES,
+                        default=argparse.SUPPRESS,
+                        help="gesture the hand performs (thesis Fig. 16): forward = up and "
+                             "back, back = down and back, right = towards the image's left "
+                             "edge and back, left = towards its right edge and back, "
+                             "rotate-right / rotate-left = a loop on the image's left / "
+                             "right side, stop = a downward-pointing triangle")
+    parser.add_argument("--seed", type=int, required=True, default=argparse.SUPPRESS,
+                        help="random seed (>= 0): the person and room depend on it, the "
+                             "timing, amplitude and start position on it and the gesture")
+    parser.add_argument("-o", "--output", required=True, metavar="CLIP",
+                        default=argparse.SUPPRESS,
+                        help="clip directory to write (replaced if it is already a clip)")
+    parser.add_argument("--width", type=int, default=640,
+                        help="image width in pixels (even, 96..4096)")
+    parser.add_argument("--height", type=int, default=480,
+                        help="image height in pixels (even, 64..4096)")
+    parser.add_argument("--fps", type=int, default=30,
+                        help="frame rate (5..240); the rest and motion durations scale "
+                             "with it (15-30 rest and 40-80 motion frames at 30 fps)")
+
+
+def run(args: argparse.Namespace) -> int:
+    # Imported here so that `stereogest --help` stays fast.
+    from sim.clip import save_clip
+    from sim.render import render_clip
+
+    clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps)
+    path = save_clip(clip, args.output)
+    first, last = clip.motion_frames
+    print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
+          f"{clip.width}x{clip.height}, motion in frames {first}-{last} "
+          f"({last - first + 1} frames), written to {path}")
+    return 0

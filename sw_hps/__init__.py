@@ -1,0 +1,1 @@
+"""sw_hps package."""
