@@ -20,6 +20,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_model.py
+	$(BIN)/python benchmarks/stereo_quality.py
 
 clean:
 	rm -rf $(VENV) demo-out .pytest_cache *.egg-info

@@ -65,7 +65,8 @@ def sparse_census(image, census_window: int = 7) -> np.ndarray:
     h, w = img.shape
     nbits = len(offsets)
     code_dtype = np.uint32 if nbits <= 32 else np.uint64
-    codes = np.zeros((h, w), dtype=code_dtype)
+    # Build the code a byte at a time: 8-bit planes are 4x cheaper to OR into.
+    planes = np.zeros(((nbits + 7) // 8, h, w), dtype=np.uint8)
     for bit, (dy, dx) in enumerate(offsets):
         # Region of centres whose neighbour (y+dy, x+dx) lies inside the frame.
         y0, y1 = max(0, -dy), min(h, h - dy)
@@ -74,6 +75,9 @@ def sparse_census(image, census_window: int = 7) -> np.ndarray:
             continue
         centre = img[y0:y1, x0:x1]
         neighbour = img[y0 + dy:y1 + dy, x0 + dx:x1 + dx]
-        ge = np.greater_equal(neighbour, centre).astype(code_dtype)
-        codes[y0:y1, x0:x1] |= ge << code_dtype(bit)
+        ge = np.greater_equal(neighbour, centre).view(np.uint8)
+        planes[bit >> 3, y0:y1, x0:x1] |= ge << np.uint8(bit & 7)
+    codes = np.zeros((h, w), dtype=code_dtype)
+    for index, plane in enumerate(planes):
+        codes |= plane.astype(code_dtype) << code_dtype(8 * index)
     return codes
