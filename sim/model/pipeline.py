@@ -66,18 +66,39 @@ class PipelineParams:
         check_int("height", height, 16, 4096)
         check_stereo_params(width, height, self.census_window, self.hamming_window,
                             self.max_disparity, self.lrcc_threshold, self.no_match_cost)
-        # The cheap stages validate themselves; run them once on a tiny input.
+        # The cheap stages validate themselves; run them once on a tiny input and
+        # rename the stage's argument in the message to the field of this class.
         probe = np.zeros((1, 1), np.uint8)
-        skin_mask(probe, probe, self.skin_cb, self.skin_cr)
-        disparity_band(probe, self.band_low, self.band_high, self.max_disparity)
-        structuring_element(self.opening_shape, self.opening_size)
-        moving_average(np.zeros((1, 2), np.int64), np.ones(1, bool), self.average_window,
-                       self.frac_bits)
-        gesture_spotting(np.zeros((1, 2), np.int64), np.ones(1, bool), self.spot_window,
-                         self.spot_threshold, self.spot_hold, self.frac_bits)
+        point = np.zeros((1, 2), np.int64), np.ones(1, bool)
+        _renamed({"cb_range": "skin_cb", "cr_range": "skin_cr"},
+                 skin_mask, probe, probe, self.skin_cb, self.skin_cr)
+        _renamed({"low": "band_low", "high": "band_high"},
+                 disparity_band, probe, self.band_low, self.band_high, self.max_disparity)
+        _renamed({"shape": "opening_shape", "size": "opening_size"},
+                 structuring_element, self.opening_shape, self.opening_size)
+        _renamed({"window": "average_window"},
+                 moving_average, *point, self.average_window, self.frac_bits)
+        _renamed({"window": "spot_window", "threshold": "spot_threshold", "hold": "spot_hold"},
+                 gesture_spotting, *point, self.spot_window, self.spot_threshold,
+                 self.spot_hold, self.frac_bits)
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+
+def _renamed(names: dict[str, str], check: Callable, *args) -> None:
+    """Call ``check(*args)``; re-raise its ``ValueError`` with the leading argument
+    name replaced by the :class:`PipelineParams` field it came from."""
+    try:
+        check(*args)
+    except ValueError as exc:
+        message = str(exc)
+        for arg, field in names.items():
+            rest = message[len(arg):]
+            if message.startswith(arg) and not (rest[:1].isalnum() or rest[:1] == "_"):
+                message = field + rest
+                break
+        raise ValueError(message) from None
 
 
 class FrameStages(NamedTuple):
@@ -166,7 +187,9 @@ def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(
     frames = len(left_frames)
     if len(right_frames) != frames:
         raise ValueError(f"left has {frames} frames but right has {len(right_frames)}")
-    height, width2 = np.shape(left_frames[0])[-2:] if frames else (16, 32)
+    if frames == 0:
+        raise ValueError("left_frames must hold at least one frame")
+    height, width2 = np.shape(left_frames[0])[-2:]
     params.validate(width2 // 2, height)
     cents = np.zeros((frames, 2), np.int64)
     areas = np.zeros(frames, np.int64)

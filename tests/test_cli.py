@@ -1,0 +1,299 @@
+"""The stereogest console script, called in-process: stereo, eval-stereo, pipeline,
+demo, error reporting and --help."""
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import stereogest.cli as cli
+from sim.clip import save_clip
+from sim.evaluate import score_disparity
+from sim.images import read_array, read_grey
+from sim.model.pipeline import PipelineParams, run_clip
+from sim.model.stereo import stereo_match
+from sim.render import render_clip
+
+TSUKUBA = Path(__file__).resolve().parent.parent / "data" / "middlebury" / "tsukuba"
+VENUS = TSUKUBA.parent / "venus"
+OPTIONS = ["--census-window", "7", "--hamming-window", "13", "--max-disparity", "32",
+           "--lrcc-threshold", "8"]
+
+
+def run(capsys, *argv):
+    """(exit status, stdout, stderr) of ``stereogest argv``."""
+    status = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def assert_one_line_error(err, command, *words):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"stereogest {command}: error: ")
+    assert "Traceback" not in err
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+
+
+def files_in(path):
+    return sorted(p.name for p in Path(path).iterdir())
+
+
+# ---------------------------------------------------------------- stereo
+
+
+@pytest.fixture(scope="module")
+def tsukuba_disparity():
+    left, right = read_grey(TSUKUBA / "left.png"), read_grey(TSUKUBA / "right.png")
+    return stereo_match(left, right, census_window=7, hamming_window=13, max_disparity=32,
+                        lrcc_threshold=8).disparity
+
+
+def test_stereo_writes_the_model_disparity(tmp_path, capsys, tsukuba_disparity):
+    out = tmp_path / "disp.png"
+    status, stdout, err = run(capsys, "stereo", TSUKUBA / "left.png", TSUKUBA / "right.png",
+                              "-o", out, *OPTIONS)
+    assert status == 0 and err == ""
+    with Image.open(out) as img:
+        assert img.mode.startswith("I")                 # 16-bit grey, not 8-bit "L"
+        disp = np.asarray(img)
+    assert disp.shape == (288, 384)
+    assert np.array_equal(disp, tsukuba_disparity)
+    lines = stdout.strip().splitlines()
+    assert len(lines) == 1
+    info = json.loads(lines[0])
+    assert info["output"] == str(out) and (info["width"], info["height"]) == (384, 288)
+    assert info["pct_invalid"] == pytest.approx(100 * (tsukuba_disparity == 0).mean(), abs=1e-3)
+    assert files_in(tmp_path) == ["disp.png"]           # no temporary file left
+
+
+def test_stereo_options_reach_the_matcher(tmp_path, capsys):
+    out = tmp_path / "disp.png"
+    status, _, _ = run(capsys, "stereo", TSUKUBA / "left.png", TSUKUBA / "right.png", "-o", out,
+                       "--census-window", "5", "--hamming-window", "9", "--max-disparity", "20",
+                       "--lrcc-threshold", "2", "--no-match-cost", "3", "--prefilter-median",
+                       "--no-disparity-median", "--threads", "2")
+    assert status == 0
+    left, right = read_grey(TSUKUBA / "left.png"), read_grey(TSUKUBA / "right.png")
+    expected = stereo_match(left, right, census_window=5, hamming_window=9, max_disparity=20,
+                            lrcc_threshold=2, no_match_cost=3, prefilter_median=True,
+                            disparity_median=False).disparity
+    assert np.array_equal(read_array(out), expected)
+
+
+@pytest.mark.parametrize("case", ["missing", "sizes", "census", "not-an-image", "hamming"])
+def test_stereo_errors(tmp_path, capsys, case):
+    left, right = TSUKUBA / "left.png", TSUKUBA / "right.png"
+    extra, words = OPTIONS, []
+    if case == "missing":
+        left, words = tmp_path / "nope.png", ["nope.png"]
+    elif case == "sizes":
+        right, words = VENUS / "right.png", ["384x288", "434x383"]
+    elif case == "census":
+        extra, words = ["--census-window", "4"], ["census_window"]
+    elif case == "hamming":
+        extra, words = ["--hamming-window", "14"], ["hamming_window"]
+    else:
+        left = tmp_path / "text.png"
+        left.write_text("not a picture")
+        words = ["text.png"]
+    out = tmp_path / "disp.png"
+    status, stdout, err = run(capsys, "stereo", left, right, "-o", out, *extra)
+    assert status == 2 and stdout == ""
+    assert_one_line_error(err, "stereo", *words)
+    assert not out.exists()
+    assert [n for n in files_in(tmp_path) if n.startswith("disp")] == []
+
+
+# ---------------------------------------------------------------- eval-stereo
+
+
+def test_eval_stereo_matches_score_disparity(tmp_path, capsys, tsukuba_disparity):
+    disp = tmp_path / "disp.png"
+    assert run(capsys, "stereo", TSUKUBA / "left.png", TSUKUBA / "right.png", "-o", disp,
+               *OPTIONS)[0] == 0
+    truth = read_array(TSUKUBA / "disp_left.png")
+
+    status, stdout, err = run(capsys, "eval-stereo", disp, TSUKUBA / "disp_left.png",
+                              "--gt-scale", "16")
+    assert status == 0 and err == ""
+    got = json.loads(stdout.strip().splitlines()[-1])
+    expected = score_disparity(tsukuba_disparity, truth, 16)
+    assert got["pct_good"] == expected["pct_good"]
+    assert got["pct_invalid"] == expected["pct_invalid"]
+    assert "pct_good_excluding_left" not in got
+
+    status, stdout, _ = run(capsys, "eval-stereo", disp, TSUKUBA / "disp_left.png",
+                            "--gt-scale", "16", "--exclude-left", "32", "--max-error", "0.5")
+    assert status == 0
+    got = json.loads(stdout)
+    expected = score_disparity(tsukuba_disparity, truth, 16, max_error=0.5, exclude_left=32)
+    for key in ("pct_good", "pct_invalid", "pct_good_excluding_left"):
+        assert got[key] == expected[key], key
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--gt-scale", "0"], ["gt_scale"]),
+    (["--gt-scale", "16", "--exclude-left", "999"], ["exclude_left"]),
+    (["--gt-scale", "16", "--max-error", "-1"], ["--max-error"]),
+])
+def test_eval_stereo_bad_options(capsys, extra, words):
+    status, stdout, err = run(capsys, "eval-stereo", TSUKUBA / "disp_left.png",
+                              TSUKUBA / "disp_left.png", *extra)
+    assert status == 2 and stdout == ""
+    assert_one_line_error(err, "eval-stereo", *words)
+
+
+def test_eval_stereo_size_mismatch_and_missing(tmp_path, capsys):
+    status, _, err = run(capsys, "eval-stereo", TSUKUBA / "disp_left.png",
+                         VENUS / "disp_left.png", "--gt-scale", "8")
+    assert status == 2
+    assert_one_line_error(err, "eval-stereo", "DISP.png", "GT.png")
+    status, _, err = run(capsys, "eval-stereo", tmp_path / "gone.png",
+                         TSUKUBA / "disp_left.png", "--gt-scale", "16")
+    assert status == 2
+    assert_one_line_error(err, "eval-stereo", "gone.png")
+
+
+# ---------------------------------------------------------------- pipeline
+
+STAGES = ("left", "right", "disparity", "skin", "band", "opening")
+
+
+@pytest.fixture(scope="module")
+def clip_dir(tmp_path_factory):
+    # 320x240: at the default parameters the hand is found in every frame (see
+    # test_model_pipeline), so the trajectory has motion, flags and symbols.
+    clip = render_clip("rotate-right", 1, 320, 240, n_pre_rest=2, n_motion=10, n_post_rest=2)
+    return clip, save_clip(clip, tmp_path_factory.mktemp("clips") / "clip")
+
+
+def test_pipeline_outputs(tmp_path, capsys, clip_dir):
+    clip, path = clip_dir
+    out = tmp_path / "out"
+    status, stdout, err = run(capsys, "pipeline", path, "-o", out, "--frames", "0,5")
+    assert status == 0
+    assert "frame 14/14" in err                         # progress (not --quiet)
+    assert str(out) in stdout
+
+    trajectory, kept = run_clip(clip.left, clip.right, keep=lambda n: n in (0, 5))
+    assert trajectory.flag.any() and (trajectory.symbol >= 0).any()     # not a trivial clip
+
+    with open(out / "trajectory.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["frame", "x", "y", "flag", "symbol"]
+    assert len(rows) == 1 + clip.frames
+    for n, row in enumerate(rows[1:]):
+        x, y = trajectory.smoothed[n] / 256
+        assert row == [str(n), f"{x:.4f}", f"{y:.4f}", str(int(trajectory.flag[n])),
+                       str(int(trajectory.symbol[n]))], n
+
+    pictures = sorted(p.name for p in out.glob("frame_*.png"))
+    assert pictures == sorted(f"frame_{n:04d}_{s}.png" for n in (0, 5) for s in STAGES)
+    for n in (0, 5):
+        st = kept[n]
+        assert np.array_equal(read_array(out / f"frame_{n:04d}_left.png"), st.left)
+        assert np.array_equal(read_array(out / f"frame_{n:04d}_right.png"), st.right)
+        for stage, mask in (("skin", st.skin), ("band", st.band), ("opening", st.opened)):
+            assert np.array_equal(read_array(out / f"frame_{n:04d}_{stage}.png"),
+                                  mask.astype(np.int64) * 255), stage
+        rgb = np.asarray(Image.open(out / f"frame_{n:04d}_disparity.png").convert("RGB"))
+        assert rgb.shape == (240, 320, 3)
+        assert not rgb[st.disparity == 0].any() and rgb[st.disparity > 0].any(axis=1).all()
+    traj_png = np.asarray(Image.open(out / "trajectory.png"))
+    assert traj_png.shape == (240, 320, 3)
+
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["gesture"] == "rotate-right" and summary["frames"] == clip.frames
+    assert summary["gesture_frames"] == int(trajectory.flag.sum())
+    assert summary["symbols"] == "".join(str(s) for s in trajectory.symbol if s >= 0)
+    assert summary["params"] == json.loads(json.dumps(PipelineParams().as_dict()))
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith("frame_")) == [
+        "summary.json", "trajectory.csv", "trajectory.png"]
+
+
+@pytest.mark.parametrize("frames, words", [("0,99", ["--frames", "99"]),
+                                           ("0,x", ["--frames", "'0,x'"]),
+                                           ("-1", ["--frames"])])
+def test_pipeline_bad_frames(tmp_path, capsys, clip_dir, frames, words):
+    _, path = clip_dir
+    out = tmp_path / "out"
+    status, stdout, err = run(capsys, "pipeline", path, "-o", out, f"--frames={frames}",
+                              "--quiet")
+    assert status == 2 and stdout == ""
+    assert_one_line_error(err, "pipeline", *words)
+    assert not out.exists()
+
+
+def test_pipeline_not_a_clip(tmp_path, capsys):
+    status, _, err = run(capsys, "pipeline", tmp_path / "nothing", "-o", tmp_path / "out")
+    assert status == 2
+    assert_one_line_error(err, "pipeline")
+    assert not (tmp_path / "out").exists()
+
+
+# ---------------------------------------------------------------- demo
+
+
+def test_demo_small(tmp_path, capsys):
+    out = tmp_path / "demo"
+    status, stdout, err = run(capsys, "demo", "--width", "160", "--height", "120", "-o", out,
+                              "--quiet")
+    assert status == 0 and err == ""
+    summary = json.loads(stdout.strip().splitlines()[-1])
+    assert {"gesture", "frames", "flagged", "symbols"} <= set(summary)
+    assert summary["gesture"] == "rotate-right"               # the default
+    clip_meta = json.loads((out / "clip" / "clip.json").read_text())
+    assert (clip_meta["width"], clip_meta["height"]) == (160, 120)
+    assert summary["frames"] == clip_meta["frames"]
+    with open(out / "pipeline" / "trajectory.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == summary["frames"]
+    assert summary["flagged"] == sum(int(r["flag"]) for r in rows)
+    assert summary["symbols"] == "".join(r["symbol"] for r in rows if int(r["symbol"]) >= 0)
+    pictures = out / "pipeline"
+    assert (pictures / "trajectory.png").is_file() and (pictures / "summary.json").is_file()
+    stage_pngs = list(pictures.glob("frame_*_*.png"))
+    assert stage_pngs and len(stage_pngs) % len(STAGES) == 0
+
+
+# ---------------------------------------------------------------- help
+
+HELP_OPTIONS = {
+    None: ["render", "stereo", "eval-stereo", "pipeline", "demo"],
+    "render": ["--gesture", "--seed", "--output", "--width", "--height", "--fps"],
+    "stereo": ["LEFT", "RIGHT", "--output", "--census-window", "--hamming-window",
+               "--max-disparity", "--lrcc-threshold", "--no-match-cost",
+               "--prefilter-median", "--no-disparity-median", "--threads"],
+    "eval-stereo": ["DISP.png", "GT.png", "--gt-scale", "--max-error", "--exclude-left"],
+    "pipeline": ["CLIP", "--output", "--frames", "--threads", "--quiet"],
+    "demo": ["--gesture", "--seed", "--width", "--height", "--output", "--threads", "--quiet"],
+}
+
+
+@pytest.mark.parametrize("command", list(HELP_OPTIONS), ids=str)
+def test_help(capsys, command):
+    argv = ["--help"] if command is None else [command, "--help"]
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    for word in HELP_OPTIONS[command]:
+        assert word in out, word
+    if command is not None:                     # and whatever else the parser defines
+        sub = next(a for a in cli.build_parser()._subparsers._group_actions
+                   if a.choices).choices[command]
+        for action in sub._actions:
+            for option in action.option_strings:
+                assert option in out, option
+
+
+def test_no_command_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([])
+    assert exc.value.code == 2
+    assert "usage: stereogest" in capsys.readouterr().err

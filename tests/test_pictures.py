@@ -1,0 +1,80 @@
+"""The PNG previews of sim.pictures: disparity colours, masks, the trajectory drawing."""
+import colorsys
+
+import numpy as np
+import pytest
+
+from sim.pictures import disparity_picture, mask_picture, trajectory_picture
+
+RED, BLUE, GREEN = (255, 60, 60), (80, 140, 255), (60, 255, 60)
+
+
+@pytest.mark.parametrize("max_disparity", [16, 48, 64])
+def test_disparity_picture_colours(max_disparity):
+    disp = np.tile(np.arange(max_disparity, dtype=np.uint8), (3, 1))
+    pic = disparity_picture(disp, max_disparity)
+    assert pic.shape == (3, max_disparity, 3) and pic.dtype == np.uint8
+    assert np.array_equal(pic[0], pic[2])                    # a colour per value only
+    row = pic[0].astype(int)
+    assert not row[0].any()                                  # invalid (0) is black
+    assert row[1:].sum(axis=1).min() > 0                     # no valid value is black
+    assert len({tuple(c) for c in row[1:]}) == max_disparity - 1   # all distinct
+    far, near = row[1], row[-1]
+    assert far[2] > far[0]                                   # far is blue-ish ...
+    assert near[0] > 2 * near[1] and near[0] > 2 * near[2]   # ... near is red
+    # In between the hue turns steadily from blue through green to red.
+    hues = [colorsys.rgb_to_hsv(*(c / 255))[0] for c in row[1:]]
+    assert np.all(np.diff(hues) <= 1e-9)
+    assert any(abs(h - 1 / 3) < 0.08 for h in hues)          # passes through green
+
+
+def test_disparity_picture_same_value_same_colour_anywhere():
+    rng = np.random.default_rng(1)
+    disp = rng.integers(0, 48, (20, 30))
+    pic = disparity_picture(disp, 48)
+    lut = disparity_picture(np.arange(48)[None, :], 48)[0]
+    assert np.array_equal(pic, lut[disp])
+
+
+def test_mask_picture():
+    mask = np.array([[True, False], [False, True]])
+    pic = mask_picture(mask)
+    assert pic.dtype == np.uint8 and pic.tolist() == [[255, 0], [0, 255]]
+    assert mask_picture(mask.astype(np.int64)).tolist() == [[255, 0], [0, 255]]
+    assert not mask_picture(np.zeros((4, 5), bool)).any()
+
+
+def close_to(pixel, colour, tol=30):
+    return np.all(np.abs(pixel.astype(int) - np.array(colour)) <= tol)
+
+
+def test_trajectory_picture():
+    background = np.full((100, 120), 200, np.uint8)
+    s = 256
+    #            no hand  rest      moving right, not flagged; down, then right, flagged
+    points = np.array([[0, 0], [10, 20], [60, 20], [60, 80], [100, 80]]) * s
+    flag = np.array([False, False, False, True, True])
+    pic = trajectory_picture(background, points, flag)
+    assert pic.shape == (100, 120, 3) and pic.dtype == np.uint8
+    assert close_to(pic[20, 35], BLUE, 0)          # unflagged step (10, 20) -> (60, 20)
+    assert close_to(pic[50, 60], RED, 0)           # flagged step (60, 20) -> (60, 80)
+    assert close_to(pic[80, 85], RED, 0)           # flagged step (60, 80) -> (100, 80)
+    assert close_to(pic[80, 54], GREEN, 0)         # ring round the first gesture point
+    assert close_to(pic[90, 10], (100, 100, 100), 0)   # background at half brightness
+    # No line from the "no hand" point (0, 0).
+    assert close_to(pic[10, 5], (100, 100, 100), 0)
+    red = np.all(pic == RED, axis=-1)
+    blue = np.all(pic == BLUE, axis=-1)
+    assert red.sum() > 100 and blue.sum() > 100
+    ys, xs = np.nonzero(red)
+    assert xs.min() >= 57 and ys.min() >= 17       # red only along the flagged steps
+    ys, xs = np.nonzero(blue)
+    assert ys.max() <= 23 and xs.min() >= 8        # blue only along the unflagged step
+
+
+def test_trajectory_picture_frac_bits_and_no_gesture():
+    background = np.zeros((40, 40), np.uint8)
+    points = np.array([[5, 5], [30, 5]]) * 16
+    pic = trajectory_picture(background, points, [False, False], frac_bits=4)
+    assert close_to(pic[5, 20], BLUE, 0)
+    assert not np.all(pic == GREEN, axis=-1).any() and not np.all(pic == RED, axis=-1).any()
