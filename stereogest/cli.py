@@ -14,6 +14,16 @@ import sys
 COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo")
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Show a default only where it says something (not None/False, not already in the text)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if "default" in text or action.default in (None, False, argparse.SUPPRESS):
+            return text
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="stereogest",
@@ -23,7 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     for mod_name in COMMANDS:
         mod = importlib.import_module(f"stereogest.commands.{mod_name}")
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.__doc__,
-                           formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                           formatter_class=_HelpFormatter)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
