@@ -1,0 +1,254 @@
+"""Discrete left-right HMMs for the seven gestures: model file and forward
+algorithm (thesis §7.4, chapter 8; Rabiner's scaled forward recursion).
+
+Runs on the board's ARM: Python 3 and numpy only, nothing else from this
+project. Training lives in :mod:`recognition`; both read and write the same
+JSON model file through :func:`load_models` / :func:`save_models`.
+
+Model file (JSON)::
+
+    {"format": "stereogest-hmm", "version": 1, "num_symbols": 8,
+     "class_names": ["forward", ...],
+     "models": [{"pi": [...], "A": [[...]], "B": [[...]]}, ...],
+     "meta": {...}}                      # free-form: training options, accuracy
+
+One model per class; each has N states (N may differ between classes), A is
+N x N, B is N x num_symbols, pi has N entries; every row sums to 1.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "DiscreteHMM", "GestureModels",
+           "ForwardStream", "best_class", "load_models", "save_models"]
+
+MODEL_FORMAT = "stereogest-hmm"
+MODEL_VERSION = 1
+_ROW_TOLERANCE = 1e-6
+
+
+def _matrix(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a numeric array of shape {shape}") from None
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} must be finite (no NaN or infinity)")
+    if (arr < 0).any():
+        raise ValueError(f"{name} must be non-negative")
+    sums = arr.sum(axis=-1)
+    if np.abs(sums - 1.0).max(initial=0.0) > _ROW_TOLERANCE:
+        worst = float(sums.flat[np.abs(sums - 1.0).argmax()])
+        raise ValueError(f"{name} rows must sum to 1 (within {_ROW_TOLERANCE}), found {worst!r}")
+    return arr
+
+
+@dataclass(frozen=True)
+class DiscreteHMM:
+    """One discrete HMM: ``pi`` (N,), ``A`` (N, N), ``B`` (N, M); validated."""
+    pi: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+
+    def __post_init__(self):
+        pi = np.asarray(self.pi, dtype=np.float64)
+        if pi.ndim != 1 or pi.size == 0:
+            raise ValueError(f"pi must be a non-empty vector, got shape {pi.shape}")
+        n = pi.size
+        b = np.asarray(self.B)
+        if b.ndim != 2:
+            raise ValueError(f"B must be a matrix (states x symbols), got shape {b.shape}")
+        object.__setattr__(self, "pi", _matrix("pi", self.pi, (n,)))
+        object.__setattr__(self, "A", _matrix("A", self.A, (n, n)))
+        object.__setattr__(self, "B", _matrix("B", self.B, (n, b.shape[1])))
+
+    @property
+    def num_states(self) -> int:
+        return self.pi.size
+
+    @property
+    def num_symbols(self) -> int:
+        return self.B.shape[1]
+
+    def log_likelihood(self, symbols) -> float:
+        """log P(symbols | model) by the scaled forward algorithm (-inf if impossible)."""
+        return float(ForwardStream([self]).feed(symbols)[0])
+
+
+class ForwardStream:
+    """Forward algorithm for several models at once, one symbol at a time.
+
+    Keeps, per model, the normalised forward vector and the running
+    log-likelihood (the sum of the logs of the scale factors), so sequences of
+    any length neither underflow nor overflow. Models with fewer states are
+    padded with unreachable states, which leaves their likelihoods unchanged.
+    """
+
+    def __init__(self, models):
+        models = list(models)
+        if not models:
+            raise ValueError("models must hold at least one HMM")
+        symbols = {m.num_symbols for m in models}
+        if len(symbols) != 1:
+            raise ValueError(f"all models must have the same number of symbols, got {sorted(symbols)}")
+        self.num_symbols = symbols.pop()
+        n = max(m.num_states for m in models)
+        k = len(models)
+        self._pi = np.zeros((k, n))
+        self._a = np.zeros((k, n, n))
+        self._b = np.full((k, self.num_symbols, n), 1.0 / self.num_symbols)
+        for i, m in enumerate(models):
+            s = m.num_states
+            self._pi[i, :s] = m.pi
+            self._a[i, :s, :s] = m.A
+            self._a[i, s:, s:] = np.eye(n - s)
+            self._b[i, :, :s] = m.B.T
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every symbol seen so far."""
+        self._alpha = None
+        self._log = np.zeros(len(self._pi))
+        self.length = 0
+
+    def update(self, symbol: int) -> np.ndarray:
+        """Take one symbol; return the log-likelihoods so far, one per model."""
+        if isinstance(symbol, bool) or not isinstance(symbol, (int, np.integer)) \
+                or not 0 <= symbol < self.num_symbols:
+            raise ValueError(f"symbol must be an integer in [0, {self.num_symbols - 1}], "
+                             f"got {symbol!r}")
+        emit = self._b[:, int(symbol), :]
+        if self._alpha is None:
+            alpha = self._pi * emit
+        else:
+            alpha = np.einsum("kn,knm->km", self._alpha, self._a) * emit
+        scale = alpha.sum(axis=1)
+        alive = scale > 0
+        with np.errstate(divide="ignore"):
+            self._log = np.where(alive, self._log + np.log(np.where(alive, scale, 1.0)), -np.inf)
+        self._alpha = np.where(alive[:, None], alpha / np.where(alive, scale, 1.0)[:, None], 0.0)
+        self.length += 1
+        return self._log.copy()
+
+    def feed(self, symbols) -> np.ndarray:
+        """Take a whole sequence; return the log-likelihoods so far."""
+        for s in np.asarray(symbols, dtype=np.int64).reshape(-1):
+            self.update(int(s))
+        return self.log_likelihoods()
+
+    def log_likelihoods(self) -> np.ndarray:
+        """Log-likelihood per model of the symbols fed since the last reset
+        (0 for the empty sequence)."""
+        return self._log.copy()
+
+
+@dataclass(frozen=True)
+class GestureModels:
+    """One HMM per gesture class, as stored in a model file."""
+    class_names: tuple[str, ...]
+    models: tuple[DiscreteHMM, ...]
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        names = tuple(str(n) for n in self.class_names)
+        if not names or len(set(names)) != len(names):
+            raise ValueError(f"class_names must be unique and non-empty, got {list(names)}")
+        if len(self.models) != len(names):
+            raise ValueError(f"{len(names)} class_names but {len(self.models)} models")
+        object.__setattr__(self, "class_names", names)
+        object.__setattr__(self, "models", tuple(self.models))
+        ForwardStream(self.models)  # checks the symbol counts agree
+
+    @property
+    def num_symbols(self) -> int:
+        return self.models[0].num_symbols
+
+    def stream(self) -> ForwardStream:
+        """A fresh streaming forward pass over every class model."""
+        return ForwardStream(self.models)
+
+    def scores(self, symbols) -> np.ndarray:
+        """Log-likelihood of ``symbols`` under every class model."""
+        return self.stream().feed(symbols)
+
+    def classify(self, symbols) -> int:
+        """Index of the most likely class (the first on ties); -1 if every model
+        gives the sequence zero probability."""
+        return best_class(self.scores(symbols))
+
+    def to_dict(self) -> dict:
+        return {"format": MODEL_FORMAT, "version": MODEL_VERSION,
+                "num_symbols": self.num_symbols, "class_names": list(self.class_names),
+                "models": [{"pi": m.pi.tolist(), "A": m.A.tolist(), "B": m.B.tolist()}
+                           for m in self.models],
+                "meta": self.meta}
+
+    @classmethod
+    def from_dict(cls, data) -> "GestureModels":
+        if not isinstance(data, dict):
+            raise ValueError("model file must hold a JSON object")
+        if data.get("format") != MODEL_FORMAT:
+            raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
+        if data.get("version") != MODEL_VERSION:
+            raise ValueError(f"version must be {MODEL_VERSION}, got {data.get('version')!r}")
+        names = data.get("class_names")
+        entries = data.get("models")
+        if not isinstance(names, list) or not isinstance(entries, list):
+            raise ValueError("class_names and models must be lists")
+        models = []
+        for name, entry in zip(names, entries):
+            if not isinstance(entry, dict) or not {"pi", "A", "B"} <= entry.keys():
+                raise ValueError(f"model of class {name!r} must have pi, A and B")
+            try:
+                models.append(DiscreteHMM(entry["pi"], entry["A"], entry["B"]))
+            except ValueError as exc:
+                raise ValueError(f"model of class {name!r}: {exc}") from None
+        result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}))
+        if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
+            raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
+                             f"{result.num_symbols} columns")
+        return result
+
+
+def best_class(scores) -> int:
+    """Index of the largest finite score (first on ties), or -1 if none is finite."""
+    scores = np.asarray(scores, dtype=np.float64)
+    if not np.isfinite(scores).any():
+        return -1
+    return int(np.argmax(np.where(np.isfinite(scores), scores, -np.inf)))
+
+
+def load_models(path) -> GestureModels:
+    """Read and validate a model file; ``ValueError`` names what is wrong."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read model file ({exc.strerror})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    try:
+        return GestureModels.from_dict(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def save_models(models: GestureModels, path) -> None:
+    """Write a model file through a temporary file (never half-written)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".part")
+    try:
+        tmp.write_text(json.dumps(models.to_dict(), indent=1) + "\n")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
