@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench clean model hps-bundle deploy
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,5 +22,24 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_model.py
 	$(BIN)/python benchmarks/stereo_quality.py
 
+# The HPS application and its trained model, as deployed to the board.
+MODEL  ?= sw_hps/models/thesis7.json
+BUNDLE := build/stereogest-hps.tar.gz
+
+model: $(STAMP)
+	mkdir -p build
+	$(BIN)/stereogest gestures -o build/corpus.npz --per-class 180 --people 3 --seed 1
+	$(BIN)/stereogest train build/corpus.npz -o $(MODEL) --states 5
+
+hps-bundle: $(STAMP)
+	$(BIN)/python -m sw_hps.bundle --model $(MODEL) -o $(BUNDLE)
+
+deploy: hps-bundle
+	@test -n "$(HPS)" || { echo "usage: make deploy HPS=user@host" >&2; exit 2; }
+	scp $(BUNDLE) $(HPS):stereogest-hps.tar.gz
+	ssh $(HPS) 'mkdir -p stereogest && tar xzf stereogest-hps.tar.gz -C stereogest'
+	@echo "Start it on the board:"
+	@echo "  ssh $(HPS) 'cd stereogest && sudo python3 -m sw_hps --model model.json --bus devmem --robot serial:/dev/ttyUSB0'"
+
 clean:
-	rm -rf $(VENV) demo-out .pytest_cache *.egg-info
+	rm -rf $(VENV) demo-out build .pytest_cache *.egg-info

@@ -98,8 +98,17 @@ def load_trajectories(path) -> TrajectorySet:
         raise FileNotFoundError(f"no such dataset file: {path}")
     try:
         with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-    except (OSError, ValueError, EOFError) as exc:
+            arrays = {}
+            for key in data.files:
+                try:
+                    arrays[key] = data[key]
+                except ValueError as exc:  # e.g. a pickled object array
+                    raise ValueError(f"{path}: {key}: cannot be read ({exc})") from None
+    except (OSError, EOFError) as exc:
+        raise ValueError(f"{path}: not a readable .npz file ({exc})") from None
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
         raise ValueError(f"{path}: not a readable .npz file ({exc})") from None
     missing = [k for k in ("points", "offsets", "label") if k not in arrays]
     if missing:

@@ -1,0 +1,83 @@
+"""Write a synthetic corpus of hand-centroid trajectories for the seven gestures.
+
+Every trajectory is the per-frame hand centroid in pixels that the FPGA would
+track while a person performs one of the thesis gestures (Fig. 16): a rest in
+front of the chest (15-30 frames at 30 fps), 40-80 frames of motion and a rest
+again, with each person's own amplitude, aspect, speed and rest position,
+tremor, segmentation jitter, fingers cut by the opening and dropped frames.
+The file is a trajectory .npz (points, offsets, label = gesture name, subject =
+person) plus the ground truth: motion (first and last motion frame of each
+trajectory), amplitude, dropped, fps and image_size.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+NAME = "gestures"
+HELP = "write a synthetic corpus of gesture trajectories (hand centroids per frame)"
+
+# Library parameter -> command-line option, for error messages.
+_OPTIONS = {"per_class": "--per-class", "people": "--people", "seed": "--seed",
+            "width": "--width", "height": "--height", "fps": "--fps"}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-o", "--output", required=True, metavar="CORPUS.npz",
+                        default=argparse.SUPPRESS,
+                        help="trajectory file to write (replaced if it exists)")
+    parser.add_argument("--per-class", type=int, default=180, metavar="N",
+                        help="trajectories per gesture (1..100000); the people take turns")
+    parser.add_argument("--people", type=int, default=3, metavar="P",
+                        help="number of people, each with their own style (1..1000)")
+    parser.add_argument("--seed", type=int, default=0, metavar="S",
+                        help="random seed (>= 0, default 0); the same arguments give the same file")
+    parser.add_argument("--width", type=int, default=640,
+                        help="image width in pixels (96..4096)")
+    parser.add_argument("--height", type=int, default=480,
+                        help="image height in pixels (64..4096)")
+    parser.add_argument("--fps", type=int, default=30,
+                        help="frame rate (5..240); the durations scale with it (15-30 rest "
+                             "and 40-80 motion frames at 30 fps)")
+
+
+def _option_message(exc: ValueError) -> str:
+    """The library's message with its leading parameter name replaced by the option."""
+    message = str(exc)
+    for param, option in _OPTIONS.items():
+        rest = message[len(param):]
+        if message.startswith(param) and not (rest[:1].isalnum() or rest[:1] == "_"):
+            return option + rest
+    return message
+
+
+def run(args: argparse.Namespace) -> int:
+    # Imported here so that `stereogest --help` stays fast.
+    import numpy as np
+
+    from recognition.corpus import generate_corpus
+    from recognition.datasets import save_trajectories
+    from sim.gesture_shapes import GESTURE_NAMES
+
+    output = Path(args.output)
+    if not output.parent.is_dir():
+        raise ValueError(f"--output: directory {output.parent} does not exist")
+    if output.is_dir():
+        raise ValueError(f"--output: {output} is a directory, expected a file name")
+    try:
+        corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,
+                                 args.height, args.fps)
+    except ValueError as exc:
+        raise ValueError(_option_message(exc)) from None
+    data = corpus.data
+    save_trajectories(data, output, motion=corpus.motion, amplitude=corpus.amplitude,
+                      dropped=corpus.dropped, fps=np.int64(args.fps),
+                      image_size=np.array([args.width, args.height], np.int64))
+    lengths = np.diff(data.offsets)
+    motion = corpus.motion[:, 1] - corpus.motion[:, 0] + 1
+    print(f"wrote {len(data)} trajectories ({len(GESTURE_NAMES)} gestures x {args.per_class}, "
+          f"{args.people} people, seed {args.seed}, {args.width}x{args.height} at "
+          f"{args.fps} fps): {lengths.min()}-{lengths.max()} frames, motion "
+          f"{motion.min()}-{motion.max()} frames, {int(corpus.dropped.sum())} frames dropped "
+          f"-> {output}")
+    return 0
