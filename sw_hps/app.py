@@ -1,0 +1,594 @@
+"""The board application: read the hand trajectory from the FPGA, recognise the
+gesture with the HMMs, command the robot (thesis §7.4.1 and §8.5).
+
+Runs on the board's ARM: Python 3 and numpy only, nothing else from this project.
+
+State machine (thesis §8.5)
+---------------------------
+S0 ``INIT``
+    (Re)start: clear the FIFOs and set GO in one Control write, forget any partial
+    gesture, and ignore a gesture that is already in progress (gesture bit 0 right
+    after the clear: its beginning was missed): points are discarded until the
+    gesture bit reads 1. The models are
+    loaded once, before S0 (they never change while running).
+S1 ``WAIT``
+    Poll Control (one status read per poll, then sleep ``poll_interval``) until a
+    gesture starts: gesture bit 0 or FIFO data 1. A new gesture starts a fresh
+    :class:`~sw_hps.hmm.ForwardStream`.
+S2 ``READ``
+    Pop the pairs the FIFOs hold (at most ``max_pairs_per_poll`` per poll). The
+    orientation symbol of each step between consecutive points
+    (:func:`sw_hps.orientation.orientation_symbols` on the raw 10.8 values) is fed to
+    the forward pass of every class model, one update per symbol; zero steps
+    (``NO_SYMBOL``) are dropped. Sleeps ``poll_interval`` only when nothing was
+    available. The gesture has ended when a status read shows the gesture bit back
+    at 1 and FIFO data 0 -> S3.
+S3 ``CLASSIFY``
+    The class with the best log-likelihood. Rejected (logged reason) if fewer
+    than ``min_symbols`` symbols were seen or every model gives probability 0.
+S4 ``SEND``
+    Send the class' telegram (:func:`sw_hps.robot.telegram`, chosen by class *name*;
+    a class whose name is not one of the seven gestures sends nothing).
+S5 ``CLEAR``
+    Clear the FIFOs (GO stays set) and return to S1.
+
+Faults: FIFO-FULL or more than ``max_points`` points drop the gesture (logged),
+clear the FIFOs and ignore the rest of that gesture (until the gesture bit reads 1).
+Any exception inside one step (bus error, bad value) is logged, the partial gesture
+is dropped, and after a back-off (doubling from ``initial_backoff`` up to
+``max_backoff``; back to the minimum after :data:`HEALTHY_STEPS` error-free steps)
+the machine restarts at S0. :meth:`GestureApp.request_stop` (the
+CLI's SIGINT/SIGTERM handlers) ends :meth:`GestureApp.run` cleanly.
+
+Every finished gesture gives one :class:`GestureResult` (recognised, rejected or
+dropped), passed to the ``on_result`` hook and returned by :meth:`GestureApp.run`.
+:func:`run_on_trajectory` runs the unmodified application against a simulated FIFO
+fed with a whole trajectory (the end-to-end demo and ``--bus sim``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import enum
+import logging
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .bus import SimBus
+from .fifo import FIFO_DEPTH, FifoPeripheral, FifoStatus
+from .hmm import GestureModels, best_class
+from .orientation import NO_SYMBOL, orientation_symbols
+from .robot import GESTURE_NAMES, NullLink, telegram
+from .simulated import SimulatedFifoPeripheral
+
+__all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "SimulationRun",
+           "simulate_trajectory", "run_on_trajectory", "DEFAULT_MIN_SYMBOLS", "DEFAULT_MAX_POINTS"]
+
+log = logging.getLogger(__name__)
+
+#: Fewest symbols a gesture needs to be classified (a twitch gives a handful).
+DEFAULT_MIN_SYMBOLS = 5
+#: Error-free steps in a row after which the back-off starts again from its minimum.
+HEALTHY_STEPS = 50
+#: Most points one gesture may have (10 s at 30 frames/s; the thesis' last 1-3 s).
+DEFAULT_MAX_POINTS = 300
+
+
+class State(enum.Enum):
+    """States of thesis §8.5 (see the module docstring)."""
+    INIT = "S0"
+    WAIT = "S1"
+    READ = "S2"
+    CLASSIFY = "S3"
+    SEND = "S4"
+    CLEAR = "S5"
+
+
+@dataclass(frozen=True)
+class GestureResult:
+    """Outcome of one gesture.
+
+    Attributes
+    ----------
+    outcome : str
+        ``"recognised"``, ``"rejected"`` (classifier said no) or ``"dropped"`` (fault).
+    class_index : int
+        Index into the model file's classes, -1 unless recognised.
+    class_name : str or None
+        Its name.
+    scores : tuple of float
+        Log-likelihood per class (empty when dropped).
+    num_points, num_symbols : int
+        Points read and symbols fed to the models.
+    symbols : tuple of int
+        The symbols fed.
+    reason : str or None
+        Why it was rejected or dropped.
+    telegram : bytes or None
+        Telegram sent for a recognised gesture (None if its class has none).
+    sent : bool
+        Whether the link accepted the telegram.
+    """
+    outcome: str
+    class_index: int = -1
+    class_name: str | None = None
+    scores: tuple[float, ...] = ()
+    num_points: int = 0
+    num_symbols: int = 0
+    symbols: tuple[int, ...] = field(default=(), repr=False)
+    reason: str | None = None
+    telegram: bytes | None = None
+    sent: bool = False
+
+    @property
+    def recognised(self) -> bool:
+        return self.outcome == "recognised"
+
+    def to_dict(self) -> dict:
+        """JSON-friendly form (telegram as hex, -inf scores as None)."""
+        return {"outcome": self.outcome, "class_index": self.class_index,
+                "class_name": self.class_name,
+                "scores": [s if np.isfinite(s) else None for s in self.scores],
+                "num_points": self.num_points, "num_symbols": self.num_symbols,
+                "reason": self.reason,
+                "telegram": self.telegram.hex(" ") if self.telegram is not None else None,
+                "sent": self.sent}
+
+
+class GestureClassifier:
+    """Streaming classifier stage (S2-S3): points -> orientation symbols ->
+    forward pass of every class model (thesis §7.4, §8.5).
+
+    Parameters
+    ----------
+    models : GestureModels
+        One HMM per class (their ``num_symbols`` must be 8).
+    min_symbols : int >= 1
+        Fewer symbols than this is a rejection.
+    """
+
+    def __init__(self, models: GestureModels, min_symbols: int = DEFAULT_MIN_SYMBOLS):
+        if isinstance(min_symbols, bool) or not isinstance(min_symbols, int) or min_symbols < 1:
+            raise ValueError(f"min_symbols must be an int >= 1, got {min_symbols!r}")
+        self.models = models
+        self.min_symbols = min_symbols
+        self._stream = models.stream()
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new gesture."""
+        self._stream.reset()
+        self._last_point: tuple[int, int] | None = None
+        self.num_points = 0
+        self.symbols: list[int] = []
+
+    def add_points(self, points) -> int:
+        """Take raw points ``(n, 2)`` (10.8 fixed point, any integers); feed the
+        symbol of every non-zero step, including the one from the previous call's
+        last point. Returns the number of symbols fed."""
+        points = np.asarray(points, dtype=np.int64).reshape(-1, 2)
+        if not len(points):
+            return 0
+        self.num_points += len(points)
+        if self._last_point is not None:
+            points = np.concatenate([np.array([self._last_point], dtype=np.int64), points])
+        self._last_point = (int(points[-1, 0]), int(points[-1, 1]))
+        if len(points) < 2:
+            return 0
+        fed = 0
+        for symbol in orientation_symbols(points):
+            if symbol != NO_SYMBOL:
+                self.feed_symbol(int(symbol))
+                fed += 1
+        return fed
+
+    def feed_symbol(self, symbol: int) -> None:
+        """One forward-pass update with ``symbol`` (0..7)."""
+        self._stream.update(symbol)
+        self.symbols.append(int(symbol))
+
+    @property
+    def num_symbols(self) -> int:
+        return self._stream.length
+
+    def scores(self) -> np.ndarray:
+        """Log-likelihood per class of the symbols so far."""
+        return self._stream.log_likelihoods()
+
+    def decide(self) -> tuple[int, str | None]:
+        """``(class_index, None)`` or ``(-1, reason)`` for the symbols so far (S3)."""
+        if self.num_symbols < self.min_symbols:
+            return -1, (f"too short: {self.num_symbols} symbols from {self.num_points} "
+                        f"points (min_symbols={self.min_symbols})")
+        best = best_class(self.scores())
+        if best < 0:
+            return -1, f"every model gives probability 0 to the {self.num_symbols} symbols"
+        return best, None
+
+
+class GestureApp:
+    """The §8.5 state machine over a FIFO driver and a robot link.
+
+    Parameters
+    ----------
+    models : GestureModels
+        The class models (from :func:`sw_hps.hmm.load_models`).
+    fifo : FifoPeripheral
+        Driver of the FIFO slave.
+    link : object with ``send(bytes) -> bool``, optional
+        Robot link (:mod:`sw_hps.robot`); :class:`~sw_hps.robot.NullLink` if None.
+    min_symbols, max_points : int
+        Rejection and fault thresholds (module docstring).
+    poll_interval : float
+        Seconds slept when a poll finds nothing to do.
+    max_pairs_per_poll : int
+        Pairs popped per poll at most (bounds a step even on garbage lengths).
+    initial_backoff, max_backoff : float
+        Delays before re-initialising after an exception (doubling, capped).
+    sleep : callable
+        ``sleep(seconds)``; injectable (tests, simulated time).
+    on_result : callable, optional
+        Called with each :class:`GestureResult`; its exceptions are logged.
+    """
+
+    def __init__(self, models: GestureModels, fifo: FifoPeripheral, link=None, *,
+                 min_symbols: int = DEFAULT_MIN_SYMBOLS, max_points: int = DEFAULT_MAX_POINTS,
+                 poll_interval: float = 0.005, max_pairs_per_poll: int = FIFO_DEPTH,
+                 initial_backoff: float = 0.1, max_backoff: float = 5.0,
+                 sleep: Callable[[float], None] = time.sleep,
+                 on_result: Callable[[GestureResult], None] | None = None):
+        if models.num_symbols != 8:
+            raise ValueError(f"models must use the 8 orientation symbols, "
+                             f"got num_symbols={models.num_symbols}")
+        for name, value in (("max_points", max_points), ("max_pairs_per_poll", max_pairs_per_poll)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+        if not poll_interval >= 0:
+            raise ValueError(f"poll_interval must be >= 0, got {poll_interval!r}")
+        if not 0 < initial_backoff <= max_backoff:
+            raise ValueError("need 0 < initial_backoff <= max_backoff, got "
+                             f"{initial_backoff!r}, {max_backoff!r}")
+        self.models = models
+        self.fifo = fifo
+        self.link = link if link is not None else NullLink()
+        self.classifier = GestureClassifier(models, min_symbols)
+        self.max_points = max_points
+        self.poll_interval = float(poll_interval)
+        self.max_pairs_per_poll = max_pairs_per_poll
+        self.initial_backoff = float(initial_backoff)
+        self.max_backoff = float(max_backoff)
+        self._sleep = sleep
+        self.on_result = on_result
+        self.state = State.INIT
+        #: True while the rest of a dropped / already-running gesture is ignored.
+        self.discarding = False
+        self.backoff = self.initial_backoff
+        self.errors = 0
+        self._healthy_steps = 0
+        self.results: deque[GestureResult] = deque(maxlen=1000)
+        self._pending: GestureResult | None = None
+        self._stop = False
+        self._run_results: list[GestureResult] | None = None
+
+    # ---- control ----------------------------------------------------------------
+    def request_stop(self) -> None:
+        """Make :meth:`run` return after the current step, or at once if it has not
+        started yet (signal-handler safe)."""
+        self._stop = True
+
+    @property
+    def stopping(self) -> bool:
+        return self._stop
+
+    def _pause(self, seconds: float) -> None:
+        # Short slices so that a stop request ends a long back-off promptly.
+        remaining = seconds
+        while remaining > 0 and not self._stop:
+            chunk = min(remaining, 0.1)
+            self._sleep(chunk)
+            remaining -= chunk
+
+    def run(self, max_iterations: int | None = None,
+            until: Callable[[], bool] | None = None) -> list[GestureResult]:
+        """Run the state machine.
+
+        Parameters
+        ----------
+        max_iterations : int, optional
+            Steps (state actions) at most; forever if None.
+        until : callable, optional
+            Checked before each step; the loop ends when it returns True.
+
+        Returns
+        -------
+        list of GestureResult
+            The gestures finished during this call. Never raises for faults of
+            the bus, the link or the data; KeyboardInterrupt ends it cleanly.
+        """
+        results: list[GestureResult] = []
+        self._run_results = results
+        iterations = 0
+        try:
+            while not self._stop and (max_iterations is None or iterations < max_iterations):
+                if until is not None and until():
+                    break
+                iterations += 1
+                try:
+                    self.step()
+                except KeyboardInterrupt:
+                    raise
+                except Exception as exc:  # the loop must survive any fault
+                    self._healthy_steps = 0
+                    self._recover(exc)
+                else:
+                    self._healthy_steps += 1
+                    if self._healthy_steps == HEALTHY_STEPS:
+                        self.backoff = self.initial_backoff
+        except KeyboardInterrupt:
+            log.info("interrupted; stopping")
+        finally:
+            self._run_results = None
+            self._stop = False  # a stop request ends one run
+        return results
+
+    def _recover(self, exc: Exception) -> None:
+        self.errors += 1
+        delay = self.backoff
+        self.backoff = min(self.backoff * 2, self.max_backoff)
+        log.error("error in state %s: %s: %s; re-initialising in %.2f s", self.state.value,
+                  type(exc).__name__, exc, delay)
+        log.debug("traceback of the error", exc_info=True)
+        if self._pending is not None:
+            self._finish(self._pending)  # decided before the fault: keep it
+        elif self.state in (State.READ, State.CLASSIFY):
+            self._finish(GestureResult("dropped", num_points=self.classifier.num_points,
+                                       num_symbols=self.classifier.num_symbols,
+                                       reason=f"{type(exc).__name__}: {exc}"))
+        self._pending = None
+        self.classifier.reset()
+        self.state = State.INIT
+        self._pause(delay)
+
+    def shutdown(self) -> None:
+        """Clear GO and close the link (errors logged, never raised)."""
+        try:
+            self.fifo.stop()
+        except Exception as exc:
+            log.warning("could not clear GO: %s", exc)
+        try:
+            self.link.close()
+        except Exception as exc:
+            log.warning("could not close the robot link: %s", exc)
+
+    # ---- the state machine --------------------------------------------------------
+    def step(self) -> None:
+        """Execute the action of the current state once (may raise; :meth:`run`
+        recovers)."""
+        action = {State.INIT: self._init, State.WAIT: self._wait, State.READ: self._read,
+                  State.CLASSIFY: self._classify, State.SEND: self._send,
+                  State.CLEAR: self._clear}[self.state]
+        action()
+
+    def _init(self) -> None:  # S0
+        self.classifier.reset()
+        self._pending = None
+        self.fifo.clear(keep_running=True)
+        # A gesture already flagged began before the clear: its start is lost.
+        self.discarding = self.fifo.status().gesture_active
+        log.info("S0: FIFO cleared, capture running%s",
+                 "; ignoring the gesture in progress" if self.discarding else "")
+        self.state = State.WAIT
+
+    def _wait(self) -> None:  # S1
+        status = self.fifo.status()
+        if status.full and not self.discarding:
+            self._drop("FIFO-FULL set (the FIFO overflowed)")
+            return
+        if self.discarding:
+            if status.full:
+                self.fifo.clear(keep_running=True)
+                return
+            if status.gesture_active:
+                if status.data:
+                    self.fifo.clear(keep_running=True)
+                self._pause(self.poll_interval)
+                return
+            self.discarding = False
+            if status.data:
+                self.fifo.clear(keep_running=True)
+                return
+        if status.data or status.gesture_active:
+            log.debug("S1: gesture started")
+            self.classifier.reset()
+            self.state = State.READ
+            self._consume(status)
+            return
+        self._pause(self.poll_interval)
+
+    def _read(self) -> None:  # S2
+        status = self.fifo.status()
+        self._consume(status)
+
+    def _consume(self, status: FifoStatus) -> None:
+        if status.full:
+            self._drop("FIFO-FULL set (the FIFO overflowed)")
+            return
+        count = min(status.pairs_available, self.max_pairs_per_poll)
+        if status.data and count == 0:
+            count = 1  # FIFO data says there is a pair even if the lengths disagree
+        if count:
+            points = np.array([self.fifo.pop_raw() for _ in range(count)], dtype=np.int64)
+            self.classifier.add_points(points)
+            if self.classifier.num_points > self.max_points:
+                self._drop(f"gesture longer than max_points={self.max_points}")
+            return
+        if not status.gesture_active:
+            self.state = State.CLASSIFY
+            return
+        self._pause(self.poll_interval)
+
+    def _drop(self, reason: str) -> None:
+        log.warning("gesture dropped: %s", reason)
+        self._pending = GestureResult("dropped", num_points=self.classifier.num_points,
+                                      num_symbols=self.classifier.num_symbols, reason=reason)
+        self.discarding = True
+        self.state = State.CLEAR
+
+    def _classify(self) -> None:  # S3
+        index, reason = self.classifier.decide()
+        scores = tuple(float(s) for s in self.classifier.scores())
+        common = dict(scores=scores, num_points=self.classifier.num_points,
+                      num_symbols=self.classifier.num_symbols,
+                      symbols=tuple(self.classifier.symbols))
+        if index < 0:
+            log.info("S3: gesture rejected: %s", reason)
+            self._pending = GestureResult("rejected", reason=reason, **common)
+            self.state = State.CLEAR
+            return
+        name = self.models.class_names[index]
+        log.info("S3: recognised %r (class %d, log-likelihood %.2f, %d symbols)", name, index,
+                 scores[index], self.classifier.num_symbols)
+        self._pending = GestureResult("recognised", class_index=index, class_name=name, **common)
+        self.state = State.SEND
+
+    def _send(self) -> None:  # S4
+        result = self._pending
+        self.state = State.CLEAR
+        if result.class_name not in GESTURE_NAMES:
+            log.warning("S4: class %r is not one of the robot's gestures %s; nothing sent",
+                        result.class_name, list(GESTURE_NAMES))
+            return
+        data = telegram(result.class_name)
+        try:
+            sent = bool(self.link.send(data))
+        except Exception as exc:  # a link must not raise; do not lose the result if it does
+            log.error("S4: robot link raised %s: %s", type(exc).__name__, exc)
+            sent = False
+        if not sent:
+            log.warning("S4: telegram %s for %r not delivered", data.hex(" "), result.class_name)
+        self._pending = dataclasses.replace(result, telegram=data, sent=sent)
+
+    def _clear(self) -> None:  # S5
+        result, self._pending = self._pending, None
+        self.classifier.reset()
+        self.state = State.WAIT
+        if result is not None:
+            self._finish(result)
+        self.fifo.clear(keep_running=True)
+
+    def _finish(self, result: GestureResult) -> None:
+        self.results.append(result)
+        if self._run_results is not None:
+            self._run_results.append(result)
+        if self.on_result is not None:
+            try:
+                self.on_result(result)
+            except Exception as exc:
+                log.error("on_result hook raised %s: %s", type(exc).__name__, exc)
+
+
+class SimulationRun:
+    """The unmodified application wired to a simulated FIFO that plays a trajectory
+    (built by :func:`simulate_trajectory`; :func:`run_on_trajectory` also runs it).
+
+    Attributes
+    ----------
+    app : GestureApp
+        The application (its ``request_stop`` ends :meth:`run` early).
+    peripheral : SimulatedFifoPeripheral
+        The FIFO model, one video frame per Control read (``reads_per_frame``).
+    link : object
+        The robot link (a recording :class:`~sw_hps.robot.NullLink` by default).
+    results : list of GestureResult
+        Every finished gesture (filled by :meth:`run`).
+    """
+
+    def __init__(self, app: GestureApp, peripheral: SimulatedFifoPeripheral, link,
+                 max_iterations: int):
+        self.app = app
+        self.peripheral = peripheral
+        self.link = link
+        self.max_iterations = max_iterations
+        self.results: list[GestureResult] = []
+
+    def finished(self) -> bool:
+        """Every frame played, FIFOs empty, no gesture flagged, application in S1."""
+        peripheral = self.peripheral
+        return (peripheral.frames_pending == 0 and not peripheral.flag
+                and not peripheral.fifo_x and self.app.state is State.WAIT)
+
+    def run(self) -> "SimulationRun":
+        """Run the application until :meth:`finished` (or the iteration bound)."""
+        self.results.extend(self.app.run(max_iterations=self.max_iterations,
+                                         until=self.finished))
+        return self
+
+    @property
+    def recognised(self) -> list[str]:
+        """Names of the recognised gestures, in order."""
+        return [r.class_name for r in self.results if r.recognised]
+
+    @property
+    def telegrams(self) -> list[bytes]:
+        """Telegrams the link accepted, in order."""
+        return [r.telegram for r in self.results if r.sent and r.telegram is not None]
+
+
+def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = True,
+                        link=None, bus: SimBus | None = None, reads_per_frame: int = 1,
+                        depth: int = FIFO_DEPTH,
+                        sleep: Callable[[float], None] = lambda seconds: None,
+                        max_iterations: int | None = None, **app_options) -> SimulationRun:
+    """Wire the unmodified application to a simulated FIFO playing a trajectory.
+
+    Parameters
+    ----------
+    models : GestureModels
+        Class models.
+    x, y : (T,) arrays
+        Smoothed centroid per video frame, in pixels (``pixels=True``, as in
+        ``trajectory.csv``) or raw 10.8 fixed point.
+    flag : (T,) array
+        Spotting flag per frame.
+    link : optional
+        Robot link; a recording :class:`~sw_hps.robot.NullLink` by default.
+    bus : SimBus, optional
+        Bus to attach the simulated FIFO to at offset 0 (e.g. one that already
+        holds a simulated UART); a new one by default.
+    reads_per_frame : int
+        Control reads (= application polls) per video frame.
+    depth : int
+        Simulated FIFO depth.
+    sleep : callable
+        The application's sleep; no-op by default (simulated time).
+    max_iterations : int, optional
+        Safety bound on steps (default: generous, from the trajectory length).
+    **app_options
+        Passed to :class:`GestureApp` (``min_symbols``, ``max_points``,
+        ``on_result``, ...).
+
+    Returns
+    -------
+    SimulationRun
+        Not yet run: call its ``run()``.
+    """
+    peripheral = SimulatedFifoPeripheral(depth=depth, reads_per_frame=reads_per_frame)
+    peripheral.queue_trajectory(x, y, flag, pixels=pixels)
+    if bus is None:
+        bus = SimBus(peripheral)
+    else:
+        bus.attach(0, peripheral)
+    link = link if link is not None else NullLink()
+    app = GestureApp(models, FifoPeripheral(bus), link, sleep=sleep, **app_options)
+    if max_iterations is None:
+        max_iterations = 20 * (peripheral.frames_pending + 10) * reads_per_frame + 1000
+    return SimulationRun(app, peripheral, link, max_iterations)
+
+
+def run_on_trajectory(models: GestureModels, x, y, flag, **options) -> SimulationRun:
+    """:func:`simulate_trajectory` and run it; the returned object holds
+    ``results``, ``recognised`` (names) and ``telegrams`` (bytes sent)."""
+    return simulate_trajectory(models, x, y, flag, **options).run()

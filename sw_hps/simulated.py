@@ -1,0 +1,309 @@
+"""In-process models of the FPGA slaves, for tests and for running the board
+application without a board (thesis §7.4.1, Tables 12-13).
+
+Runs on the board's ARM too: Python 3 and numpy only, nothing else from this project.
+
+:class:`SimulatedFifoPeripheral` has exactly the register semantics documented in
+:mod:`sw_hps.fifo`; :class:`SimulatedUart` those of the UART map in
+:mod:`sw_hps.robot`. Both implement ``read32`` / ``write32`` (offsets relative to
+their own base), so :class:`sw_hps.bus.SimBus` can wrap them.
+
+Time (video frames) in the FIFO model
+-------------------------------------
+The hardware pushes one pair per video frame; the model advances one frame when
+
+* a test calls :meth:`SimulatedFifoPeripheral.push_frame` (that frame's values), or
+* a test calls :meth:`SimulatedFifoPeripheral.step` (the next frame of a trajectory
+  queued with :meth:`~SimulatedFifoPeripheral.queue_trajectory`; once the queue is
+  empty a step is an idle frame whose spotting flag is 0), or
+* ``reads_per_frame = N`` is set: every N-th read of the Control register first
+  steps one frame. The board application reads Control exactly once per poll (in
+  :meth:`sw_hps.fifo.FifoPeripheral.status`), so ``N = 1`` means "one video frame
+  between two polls", ``N = 3`` "the ARM polls three times per frame". This is how
+  the unmodified application is run against a whole trajectory.
+"""
+from __future__ import annotations
+
+import csv
+import logging
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+
+from .fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
+                   CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
+                   LONGITUD_Y, REGISTER_SPAN, to_fixed)
+from .robot import UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID, \
+    UART_STATUS_TX_READY, UART_TXDATA
+
+__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv"]
+
+log = logging.getLogger(__name__)
+
+
+def _check_raw(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or not 0 <= int(value) <= DATA_MASK:
+        raise ValueError(f"{name} must be an int in [0, {DATA_MASK}] (10.8 fixed point), "
+                         f"got {value!r}")
+    return int(value)
+
+
+class SimulatedFifoPeripheral:
+    """Software model of the FIFO slave (register map in :mod:`sw_hps.fifo`).
+
+    Parameters
+    ----------
+    depth : int >= 1
+        Entries per FIFO (the hardware has :data:`sw_hps.fifo.FIFO_DEPTH`).
+    reads_per_frame : int >= 1 or None
+        If set, every ``reads_per_frame``-th read of Control steps one frame first
+        (see the module docstring). ``None``: frames advance only when the test
+        calls :meth:`push_frame` or :meth:`step`.
+
+    Attributes
+    ----------
+    frames : int
+        Video frames seen so far.
+    dropped : int
+        Pairs dropped because a FIFO was full.
+    clears : int
+        FIFO-CLR writes received.
+    """
+
+    span = REGISTER_SPAN
+
+    def __init__(self, depth: int = FIFO_DEPTH, reads_per_frame: int | None = None):
+        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
+            raise ValueError(f"depth must be an int >= 1, got {depth!r}")
+        if reads_per_frame is not None and (isinstance(reads_per_frame, bool)
+                                            or not isinstance(reads_per_frame, int)
+                                            or reads_per_frame < 1):
+            raise ValueError(f"reads_per_frame must be None or an int >= 1, "
+                             f"got {reads_per_frame!r}")
+        self.depth = depth
+        self.reads_per_frame = reads_per_frame
+        self.go = False
+        self.flag = False
+        self.full = False
+        self.fifo_x: deque[int] = deque()
+        self.fifo_y: deque[int] = deque()
+        self._pending: deque[tuple[int, int, bool]] = deque()
+        self._control_reads = 0
+        self.frames = 0
+        self.dropped = 0
+        self.clears = 0
+
+    # ---- the video side ---------------------------------------------------------
+    def push_frame(self, x_fixed: int, y_fixed: int, flag) -> None:
+        """One video frame: centroid (10.8 fixed point) and spotting flag.
+
+        With GO set and ``flag`` true the pair is pushed (or dropped, setting
+        FIFO-FULL, if either FIFO is full); the gesture bit follows ``flag``.
+        """
+        x_fixed = _check_raw("x_fixed", x_fixed)
+        y_fixed = _check_raw("y_fixed", y_fixed)
+        self.frames += 1
+        self.flag = bool(flag)
+        if not (self.go and self.flag):
+            return
+        if len(self.fifo_x) >= self.depth or len(self.fifo_y) >= self.depth:
+            self.full = True
+            self.dropped += 1
+            return
+        self.fifo_x.append(x_fixed)
+        self.fifo_y.append(y_fixed)
+
+    def queue_trajectory(self, x, y, flag, *, pixels: bool = False) -> None:
+        """Append frames to be played by :meth:`step` (or by Control reads).
+
+        Parameters
+        ----------
+        x, y : (T,) arrays
+            Centroid per frame: 10.8 fixed-point integers, or pixels if ``pixels``.
+        flag : (T,) array
+            Spotting flag per frame (non-zero = gesture in progress).
+        """
+        x = np.asarray(x).reshape(-1)
+        y = np.asarray(y).reshape(-1)
+        flag = np.asarray(flag).reshape(-1)
+        if not len(x) == len(y) == len(flag):
+            raise ValueError(f"x, y and flag must have the same length, got "
+                             f"{len(x)}, {len(y)}, {len(flag)}")
+        for n in range(len(x)):
+            if pixels:
+                fx, fy = to_fixed(x[n]), to_fixed(y[n])
+            else:
+                fx, fy = _check_raw("x", x[n]), _check_raw("y", y[n])
+            self._pending.append((fx, fy, bool(flag[n])))
+
+    @property
+    def frames_pending(self) -> int:
+        """Queued frames not yet played."""
+        return len(self._pending)
+
+    def step(self, frames: int = 1) -> int:
+        """Play ``frames`` queued frames (idle frames, flag 0, once the queue is
+        empty, holding the last centroid). Returns how many queued frames were played."""
+        played = 0
+        for _ in range(frames):
+            if self._pending:
+                self.push_frame(*self._pending.popleft())
+                played += 1
+            else:
+                self.frames += 1
+                self.flag = False
+        return played
+
+    # ---- the bus side -----------------------------------------------------------
+    def control(self) -> int:
+        """Control word as the hardware would return it (no side effect)."""
+        value = 0
+        if self.go:
+            value |= CTRL_GO
+        if self.fifo_x and self.fifo_y:
+            value |= CTRL_FIFO_DATA
+        if not (self.go and self.flag):
+            value |= CTRL_NO_GESTURE
+        if self.full:
+            value |= CTRL_FIFO_FULL
+        return value
+
+    def read32(self, offset: int) -> int:
+        if offset == DATO_X:
+            return self.fifo_x.popleft() if self.fifo_x else 0
+        if offset == DATO_Y:
+            return self.fifo_y.popleft() if self.fifo_y else 0
+        if offset == CONTROL:
+            if self.reads_per_frame is not None:
+                self._control_reads += 1
+                if self._control_reads >= self.reads_per_frame:
+                    self._control_reads = 0
+                    self.step()
+            return self.control()
+        if offset == LONGITUD_X:
+            return len(self.fifo_x)
+        if offset == LONGITUD_Y:
+            return len(self.fifo_y)
+        return 0  # reserved (and anything else in the window)
+
+    def write32(self, offset: int, value: int) -> None:
+        if offset != CONTROL:
+            return  # Dato_*, Longitud_* and reserved ignore writes
+        self.go = bool(value & CTRL_GO)
+        if value & CTRL_FIFO_CLR:
+            self.fifo_x.clear()
+            self.fifo_y.clear()
+            self.full = False
+            self.clears += 1
+
+
+class SimulatedUart:
+    """Software model of the FPGA UART used by :class:`sw_hps.robot.UartLink`
+    (register map in :mod:`sw_hps.robot`).
+
+    Parameters
+    ----------
+    busy_reads : int >= 0
+        After each transmitted byte, STATUS reads TX ready = 0 this many times
+        (the byte being shifted out).
+    stuck : bool
+        TX ready never rises (a hung UART; the link must give up, not hang).
+
+    Attributes
+    ----------
+    transmitted : bytearray
+        Every byte written to TXDATA while TX ready was 1.
+    overruns : int
+        Bytes written while TX ready was 0 (lost).
+    """
+
+    span = UART_SPAN
+
+    def __init__(self, busy_reads: int = 0, stuck: bool = False):
+        self.busy_reads = int(busy_reads)
+        self.stuck = bool(stuck)
+        self.transmitted = bytearray()
+        self.receive_queue: deque[int] = deque()
+        self.overruns = 0
+        self._busy = 0
+
+    def _tx_ready(self) -> bool:
+        return not self.stuck and self._busy == 0
+
+    def read32(self, offset: int) -> int:
+        if offset == UART_STATUS:
+            value = (UART_STATUS_TX_READY if self._tx_ready() else 0) \
+                | (UART_STATUS_RX_VALID if self.receive_queue else 0)
+            if self._busy:
+                self._busy -= 1
+            return value
+        if offset == UART_RXDATA:
+            return self.receive_queue.popleft() if self.receive_queue else 0
+        return 0
+
+    def write32(self, offset: int, value: int) -> None:
+        if offset != UART_TXDATA:
+            return
+        if not self._tx_ready():
+            self.overruns += 1
+            return
+        self.transmitted.append(value & 0xFF)
+        self._busy = self.busy_reads
+
+
+def read_trajectory_csv(path):
+    """Read a ``trajectory.csv`` as written by ``stereogest pipeline``.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with a header holding at least ``frame,x,y,flag`` (x, y in pixels;
+        other columns such as ``symbol`` are ignored).
+
+    Returns
+    -------
+    x, y : (T,) float64
+        Centroid in pixels per frame, in file order.
+    flag : (T,) bool
+        Spotting flag per frame.
+
+    Raises
+    ------
+    ValueError
+        Unreadable file, missing column or bad value (message names the file and line).
+    """
+    path = Path(path)
+    try:
+        with path.open(newline="") as handle:
+            rows = list(csv.reader(handle))
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read trajectory ({exc.strerror})") from None
+    except (csv.Error, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a CSV file ({exc})") from None
+    if not rows:
+        raise ValueError(f"{path}: empty trajectory file")
+    header = [name.strip() for name in rows[0]]
+    missing = [name for name in ("frame", "x", "y", "flag") if name not in header]
+    if missing:
+        raise ValueError(f"{path}: header must name frame,x,y,flag; missing {missing}")
+    ix, iy, iflag = header.index("x"), header.index("y"), header.index("flag")
+    xs, ys, flags = [], [], []
+    for line, row in enumerate(rows[1:], start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        try:
+            x, y, flag = float(row[ix]), float(row[iy]), int(row[iflag])
+        except (IndexError, ValueError):
+            raise ValueError(f"{path}: line {line}: expected numbers in x, y and an "
+                             f"integer flag, got {row}") from None
+        if not (np.isfinite(x) and np.isfinite(y)) or x < 0 or y < 0:
+            raise ValueError(f"{path}: line {line}: x and y must be finite and >= 0")
+        if flag not in (0, 1):
+            raise ValueError(f"{path}: line {line}: flag must be 0 or 1, got {flag}")
+        xs.append(x)
+        ys.append(y)
+        flags.append(bool(flag))
+    return np.array(xs, dtype=np.float64), np.array(ys, dtype=np.float64), \
+        np.array(flags, dtype=bool)

@@ -1,0 +1,515 @@
+"""Tests for the board application sw_hps.app and its CLI (thesis §7.4.1, §8.5)."""
+import json
+import logging
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from sim.gesture_shapes import GESTURE_NAMES, gesture_path
+from sw_hps.__main__ import main
+from sw_hps.app import (HEALTHY_STEPS, GestureApp, GestureClassifier, GestureResult, State,
+                        run_on_trajectory, simulate_trajectory)
+from sw_hps.bus import SimBus
+from sw_hps.fifo import CONTROL, DATO_X, FifoPeripheral, to_fixed
+from sw_hps.hmm import DiscreteHMM, GestureModels, save_models
+from sw_hps.orientation import NO_SYMBOL, orientation_symbols
+from sw_hps.robot import NullLink, telegram
+from sw_hps.simulated import SimulatedFifoPeripheral
+
+# Direction codes of each shape (sim.gesture_shapes docstring): one left-right state each.
+CODES = {"forward": [2, 6], "back": [6, 2], "right": [4, 0], "left": [0, 4],
+         "rotate-right": [2, 3, 4, 5, 6, 7, 0, 1, 2], "rotate-left": [2, 1, 0, 7, 6, 5, 4, 3, 2],
+         "stop": [3, 0, 5]}
+
+
+def left_right_model(codes, stay=0.8, hit=0.86):
+    """Left-right HMM: state i emits codes[i] with probability ``hit``."""
+    n = len(codes)
+    a = np.zeros((n, n))
+    for i in range(n - 1):
+        a[i, i], a[i, i + 1] = stay, 1 - stay
+    a[-1, -1] = 1.0
+    b = np.full((n, 8), (1 - hit) / 7)
+    b[np.arange(n), codes] = hit
+    pi = np.zeros(n)
+    pi[0] = 1.0
+    return DiscreteHMM(pi, a, b)
+
+
+MODELS = GestureModels(GESTURE_NAMES, [left_right_model(CODES[g]) for g in GESTURE_NAMES])
+
+
+def gesture_frames(name, points=60, rest=15, amplitude=150.0, centre=(320.0, 240.0)):
+    """(x, y, flag) in pixels: rest, the gesture (flagged), rest."""
+    path = gesture_path(name, points) * amplitude + centre
+    still = np.tile(centre, (rest, 1))
+    xy = np.concatenate([still, path, still])
+    flag = np.r_[np.zeros(rest), np.ones(points), np.zeros(rest)].astype(bool)
+    return xy[:, 0], xy[:, 1], flag
+
+
+class RecordingLink:
+    def __init__(self, result=True):
+        self.sent = []
+        self.result = result
+
+    def send(self, data):
+        self.sent.append(bytes(data))
+        if isinstance(self.result, Exception):
+            raise self.result
+        return self.result
+
+    def close(self):
+        pass
+
+
+def make_app(depth=512, link=None, **options):
+    peripheral = SimulatedFifoPeripheral(depth=depth)
+    app = GestureApp(MODELS, FifoPeripheral(SimBus(peripheral)), link or RecordingLink(),
+                     sleep=lambda s: None, **options)
+    return app, peripheral
+
+
+def push_gesture(peripheral, name, **kwargs):
+    x, y, flag = gesture_frames(name, **kwargs)
+    for n in range(len(x)):
+        peripheral.push_frame(to_fixed(x[n]), to_fixed(y[n]), flag[n])
+
+
+# ---- recognition end to end on the simulated FIFO ------------------------------------------
+@pytest.mark.parametrize("name", GESTURE_NAMES)
+def test_recognises_each_gesture_and_sends_its_telegram(name):
+    link = RecordingLink()
+    x, y, flag = gesture_frames(name)
+    run = run_on_trajectory(MODELS, x, y, flag, link=link)
+    assert run.recognised == [name]
+    assert link.sent == [telegram(name)] == run.telegrams
+    result = run.results[0]
+    assert result.recognised and result.sent and result.num_points == flag.sum()
+    # The streamed symbols and scores equal the offline computation on the raw values.
+    raw = np.array([[to_fixed(a), to_fixed(b)] for a, b in zip(x[flag], y[flag])])
+    symbols = orientation_symbols(raw)
+    symbols = symbols[symbols != NO_SYMBOL]
+    assert list(result.symbols) == symbols.tolist()
+    assert np.allclose(result.scores, MODELS.scores(symbols))
+    assert run.peripheral.go and run.app.state is State.WAIT
+
+
+def test_sequence_of_gestures_with_slow_polling():
+    names = ["stop", "left", "rotate-right", "back"]
+    parts = [gesture_frames(n, points=50 + 7 * i) for i, n in enumerate(names)]
+    x, y, flag = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    for reads_per_frame in (1, 4):
+        run = run_on_trajectory(MODELS, x, y, flag, reads_per_frame=reads_per_frame)
+        assert run.recognised == names
+        assert list(run.link.sent) == [telegram(n) for n in names]
+
+
+def test_batch_reading_when_the_arm_is_late():
+    app, peripheral = make_app()
+    app.run(max_iterations=2)                          # S0, then S1 idle
+    peripheral.write32(CONTROL, 1)
+    push_gesture(peripheral, "rotate-left")            # whole gesture queued before a poll
+    results = app.run(max_iterations=10)
+    assert [r.class_name for r in results] == ["rotate-left"]
+    assert app.link.sent == [telegram("rotate-left")]
+
+
+def test_on_result_hook_and_unknown_class_names():
+    names = ("up", "down")
+    models = GestureModels(names, [left_right_model([2]), left_right_model([6])])
+    seen = []
+    x, y, flag = gesture_frames("forward")
+    run = run_on_trajectory(models, x, y, flag, on_result=seen.append)
+    assert [r.class_name for r in seen] == ["up"] == run.recognised
+    assert seen[0].telegram is None and not seen[0].sent and list(run.link.sent) == []
+
+
+# ---- rejections ------------------------------------------------------------------------------
+def test_short_gesture_is_rejected():
+    x, y, flag = gesture_frames("left", points=4)
+    run = run_on_trajectory(MODELS, x, y, flag, min_symbols=5)
+    assert run.recognised == [] and not run.link.sent
+    (result,) = run.results
+    assert result.outcome == "rejected" and "too short" in result.reason
+
+
+def test_zero_probability_gesture_is_rejected(caplog):
+    caplog.set_level(logging.INFO, logger="sw_hps")
+    only_right = np.zeros((1, 8))
+    only_right[0, 0] = 1.0
+    models = GestureModels(("forward", "back"), [DiscreteHMM([1.0], [[1.0]], only_right)] * 2)
+    x, y, flag = gesture_frames("forward")
+    run = run_on_trajectory(models, x, y, flag)
+    (result,) = run.results
+    assert result.outcome == "rejected" and "probability 0" in result.reason
+    assert "rejected" in caplog.text
+
+
+# ---- faults ------------------------------------------------------------------------------------
+def test_fifo_full_drops_the_gesture_and_clears():
+    app, peripheral = make_app(depth=20)
+    app.run(max_iterations=2)
+    push_gesture(peripheral, "left", rest=0)           # 60 pairs into a 20-deep FIFO, not read
+    assert peripheral.full
+    clears = peripheral.clears
+    results = app.run(max_iterations=5)
+    assert [r.outcome for r in results] == ["dropped"] and "FIFO-FULL" in results[0].reason
+    assert not peripheral.full and not peripheral.fifo_x and peripheral.clears > clears
+    assert not app.link.sent
+    # The next gesture goes through (polled every frame).
+    x, y, flag = gesture_frames("back", points=18)
+    peripheral.queue_trajectory(x, y, flag, pixels=True)
+    peripheral.reads_per_frame = 1
+    later = app.run(max_iterations=500, until=lambda: peripheral.frames_pending == 0
+                    and app.state is State.WAIT and not peripheral.fifo_x)
+    assert [r.class_name for r in later] == ["back"]
+
+
+def test_too_long_gesture_is_dropped_and_its_tail_ignored():
+    x, y, flag = gesture_frames("rotate-left", points=80)
+    x2, y2, flag2 = gesture_frames("forward", points=30)
+    run = run_on_trajectory(MODELS, np.r_[x, x2], np.r_[y, y2], np.r_[flag, flag2],
+                            max_points=40)
+    assert [r.outcome for r in run.results] == ["dropped", "recognised"]
+    assert "max_points=40" in run.results[0].reason
+    assert run.recognised == ["forward"]
+
+
+def test_gesture_in_progress_at_start_is_ignored():
+    x, y, flag = gesture_frames("left", rest=0)
+    x2, y2, flag2 = gesture_frames("right")
+    start = 20                                         # the app starts mid-gesture
+    run = run_on_trajectory(MODELS, np.r_[x[start:], x2], np.r_[y[start:], y2],
+                            np.r_[flag[start:], flag2])
+    assert run.recognised == ["right"] and len(run.results) == 1
+
+
+class FlakyBus:
+    """A SimBus that raises on chosen reads."""
+
+    def __init__(self, inner, fail_reads):
+        self.inner = inner
+        self.fail_reads = set(fail_reads)
+        self.reads = 0
+
+    def read32(self, offset):
+        self.reads += 1
+        if self.reads in self.fail_reads:
+            raise OSError(5, "bridge timeout")
+        return self.inner.read32(offset)
+
+    def write32(self, offset, value):
+        self.inner.write32(offset, value)
+
+    def close(self):
+        pass
+
+
+def test_bus_errors_are_logged_and_the_loop_recovers_with_backoff(caplog):
+    peripheral = SimulatedFifoPeripheral(reads_per_frame=1)
+    parts = [gesture_frames(n) for n in ("left", "stop", "back")]
+    peripheral.queue_trajectory(*(np.concatenate([p[k] for p in parts]) for k in range(3)),
+                                pixels=True)
+    sleeps = []
+    bus = FlakyBus(SimBus(peripheral), fail_reads={60, 61, 62, 63})
+    app = GestureApp(MODELS, FifoPeripheral(bus), RecordingLink(), sleep=sleeps.append,
+                     poll_interval=0.0, initial_backoff=0.05, max_backoff=0.15)
+    results = app.run(max_iterations=5000, until=lambda: peripheral.frames_pending == 0
+                      and app.state is State.WAIT and not peripheral.fifo_x)
+    assert app.errors == 4 and "bridge timeout" in caplog.text
+    delays = re.findall(r"re-initialising in ([0-9.]+) s", caplog.text)
+    assert delays == ["0.05", "0.10", "0.15", "0.15"]          # doubling, capped
+    assert sum(sleeps) == pytest.approx(0.45)
+    # The gesture hit by the errors is dropped; the later ones are recognised.
+    assert [r.outcome for r in results] == ["dropped", "recognised", "recognised"]
+    assert [r.class_name for r in results[1:]] == ["stop", "back"]
+
+
+class DatoFailsBus(FlakyBus):
+    """Status reads work, every pop fails while ``broken``."""
+
+    def __init__(self, inner):
+        super().__init__(inner, ())
+        self.broken = True
+
+    def read32(self, offset):
+        if self.broken and offset == DATO_X:
+            raise OSError(5, "pop failed")
+        return self.inner.read32(offset)
+
+
+def test_persistent_fault_backs_off_to_the_cap_then_resets_when_healthy(caplog):
+    peripheral = SimulatedFifoPeripheral()
+    bus = DatoFailsBus(SimBus(peripheral))
+    app = GestureApp(MODELS, FifoPeripheral(bus), NullLink(), sleep=lambda s: None,
+                     initial_backoff=0.05, max_backoff=0.2)
+    peripheral.write32(CONTROL, 1)
+    for _ in range(30):                                # data always waiting
+        if not peripheral.fifo_x:
+            peripheral.fifo_x.append(5), peripheral.fifo_y.append(5)
+        app.run(max_iterations=1)
+    delays = re.findall(r"re-initialising in ([0-9.]+) s", caplog.text)
+    assert delays[:5] == ["0.05", "0.10", "0.20", "0.20", "0.20"]
+    bus.broken = False
+    app.run(max_iterations=HEALTHY_STEPS)
+    assert app.backoff == 0.05
+
+
+def test_link_failures_do_not_stop_the_loop():
+    for result in (False, RuntimeError("link exploded")):
+        link = RecordingLink(result)
+        x, y, flag = gesture_frames("left")
+        run = run_on_trajectory(MODELS, np.r_[x, x], np.r_[y, y], np.r_[flag, flag], link=link)
+        assert run.recognised == ["left", "left"] and run.telegrams == []
+        assert link.sent == [telegram("left")] * 2
+        assert all(not r.sent and r.telegram == telegram("left") for r in run.results)
+
+
+def test_hook_errors_are_logged_and_stop_request_ends_run(caplog):
+    app, peripheral = make_app()
+
+    def hook(result):
+        app.request_stop()
+        raise ValueError("bad hook")
+    app.on_result = hook
+    peripheral.queue_trajectory(*gesture_frames("right"), pixels=True)
+    peripheral.queue_trajectory(*gesture_frames("left"), pixels=True)
+    peripheral.reads_per_frame = 1
+    results = app.run(max_iterations=10_000)
+    assert [r.class_name for r in results] == ["right"]   # stopped after the first
+    assert "bad hook" in caplog.text and peripheral.frames_pending > 0
+
+
+def test_keyboard_interrupt_ends_run_cleanly():
+    def sleep(seconds):
+        raise KeyboardInterrupt
+    app = GestureApp(MODELS, FifoPeripheral(SimBus(SimulatedFifoPeripheral())), sleep=sleep)
+    assert app.run(max_iterations=100) == []
+
+
+def test_shutdown_clears_go():
+    app, peripheral = make_app()
+    app.run(max_iterations=1)
+    assert peripheral.go
+    app.shutdown()
+    assert not peripheral.go
+
+
+def test_constructor_validation():
+    fifo = FifoPeripheral(SimBus(SimulatedFifoPeripheral()))
+    for kwargs, name in [({"max_points": 0}, "max_points"), ({"min_symbols": 0}, "min_symbols"),
+                         ({"poll_interval": -1}, "poll_interval"),
+                         ({"initial_backoff": 0}, "initial_backoff")]:
+        with pytest.raises(ValueError, match=name):
+            GestureApp(MODELS, fifo, **kwargs)
+    six = GestureModels(("a",), [DiscreteHMM([1.0], [[1.0]], [[1 / 6] * 6])])
+    with pytest.raises(ValueError, match="num_symbols"):
+        GestureApp(six, fifo)
+
+
+def test_result_to_dict_is_json():
+    result = GestureResult("recognised", 0, "forward", (-1.0, float("-inf")), 10, 9,
+                           telegram=telegram(0), sent=True)
+    data = json.loads(json.dumps(result.to_dict()))
+    assert data["scores"] == [-1.0, None] and data["telegram"] == "06 00 80 09 00 02 31 00"
+
+
+# ---- property tests ------------------------------------------------------------------------------
+class RandomBus:
+    """Any 32-bit words, and sometimes an exception, whatever the offset."""
+
+    def __init__(self, words, failures):
+        self.words = words or [0]
+        self.failures = failures
+        self.count = 0
+
+    def read32(self, offset):
+        self.count += 1
+        if self.failures and self.count % self.failures == 0:
+            raise OSError(5, "random bus fault")
+        return self.words[self.count % len(self.words)]
+
+    def write32(self, offset, value):
+        assert 0 <= value <= 0xFFFFFFFF
+
+    def close(self):
+        pass
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(words=st.lists(st.integers(0, 2 ** 32 - 1), min_size=1, max_size=40),
+       failures=st.integers(0, 7))
+def test_random_register_values_never_crash_the_loop(words, failures):
+    app = GestureApp(MODELS, FifoPeripheral(RandomBus(words, failures)), NullLink(),
+                     sleep=lambda s: None, max_pairs_per_poll=64, max_points=100)
+    results = app.run(max_iterations=150)
+    assert all(r.outcome in ("recognised", "rejected", "dropped") for r in results)
+    assert app.state in State
+
+
+@settings(max_examples=100, deadline=None)
+@given(symbols=st.lists(st.integers(0, 7), max_size=120), min_symbols=st.integers(1, 10))
+def test_random_symbol_streams_give_a_class_or_a_rejection(symbols, min_symbols):
+    sparse = GestureModels(GESTURE_NAMES, [left_right_model(CODES[g], hit=1.0)
+                                           for g in GESTURE_NAMES])
+    for models in (MODELS, sparse):
+        classifier = GestureClassifier(models, min_symbols)
+        for symbol in symbols:
+            classifier.feed_symbol(symbol)
+        index, reason = classifier.decide()
+        if index >= 0:
+            assert index < len(GESTURE_NAMES) and reason is None
+            assert len(symbols) >= min_symbols
+            assert index == int(np.argmax(models.scores(symbols)))
+        else:
+            assert isinstance(reason, str) and reason
+
+
+@settings(max_examples=60, deadline=None)
+@given(points=st.lists(st.tuples(st.integers(0, 2 ** 18 - 1), st.integers(0, 2 ** 18 - 1)),
+                       max_size=50),
+       split=st.integers(0, 50))
+def test_points_in_any_batches_give_the_offline_symbols(points, split):
+    classifier = GestureClassifier(MODELS, 1)
+    classifier.add_points(points[:split])
+    classifier.add_points(points[split:])
+    expected = orientation_symbols(np.array(points)).tolist() if len(points) > 1 else []
+    assert classifier.symbols == [s for s in expected if s != NO_SYMBOL]
+    assert classifier.num_points == len(points)
+
+
+@settings(max_examples=60, deadline=None)
+@given(actions=st.lists(st.one_of(
+    st.tuples(st.just("frames"), st.lists(st.tuples(st.integers(0, 2 ** 18 - 1),
+                                                    st.integers(0, 2 ** 18 - 1), st.booleans()),
+                                          max_size=30)),
+    st.tuples(st.just("run"), st.integers(1, 12))), max_size=12),
+    depth=st.integers(1, 16))
+def test_random_fifo_full_and_garbage_sequences(actions, depth):
+    app, peripheral = make_app(depth=depth, max_points=50)
+    app.run(max_iterations=1)
+    for kind, value in actions:
+        if kind == "frames":
+            for x, y, flag in value:
+                peripheral.push_frame(x, y, flag)
+        else:
+            for result in app.run(max_iterations=value):
+                assert result.outcome in ("recognised", "rejected", "dropped")
+                if result.outcome == "dropped":
+                    assert "FIFO-FULL" in result.reason or "max_points" in result.reason
+    # Once the hand rests, the application drains everything and waits.
+    peripheral.push_frame(0, 0, False)
+    app.run(max_iterations=20)
+    assert app.state is State.WAIT and not peripheral.full and not peripheral.fifo_x
+    assert peripheral.go
+
+
+# ---- command line -------------------------------------------------------------------------------
+@pytest.fixture
+def model_file(tmp_path):
+    path = tmp_path / "models.json"
+    save_models(MODELS, path)
+    return path
+
+
+@pytest.fixture
+def trajectory_file(tmp_path):
+    parts = [gesture_frames(n) for n in ("rotate-right", "stop")]
+    x, y, flag = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    lines = ["frame,x,y,flag,symbol"] + [f"{n},{x[n]:.4f},{y[n]:.4f},{int(flag[n])},-1"
+                                         for n in range(len(x))]
+    path = tmp_path / "trajectory.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("robot", ["none", "uart"])
+def test_cli_sim_plays_a_trajectory(model_file, trajectory_file, robot, capsys):
+    code = main(["--model", str(model_file), "--bus", "sim", "--robot", robot,
+                 "--sim-trajectory", str(trajectory_file), "--poll-ms", "0.01",
+                 "--log-level", "warning"])
+    assert code == 0
+    gestures = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["gestures"]
+    assert [g["class_name"] for g in gestures] == ["rotate-right", "stop"]
+    assert gestures[1]["telegram"] == telegram("stop").hex(" ") and gestures[1]["sent"]
+
+
+@pytest.mark.parametrize("args,match", [
+    ([], "--model"),
+    (["--bus", "pci"], "--bus"),
+    (["--robot", "wifi"], "--robot"),
+    (["--robot", "serial:"], "--robot"),
+    (["--bridge-offset", "0x3"], "--bridge-offset"),
+    (["--bridge-offset", "zz"], "--bridge-offset"),
+    (["--uart-offset", "0x8"], "--uart-offset"),
+    (["--poll-ms", "0"], "--poll-ms"),
+    (["--log-level", "loud"], "--log-level"),
+    (["--bus", "devmem", "--sim-trajectory", "t.csv"], "--sim-trajectory"),
+    (["--rn42-address", "0016530A0B0C"], "--rn42-address"),
+    (["--robot", "serial:/dev/null", "--rn42-address", "xyz"], "address"),
+    (["--robot", "serial:/dev/null", "--baudrate", "1234"], "--baudrate"),
+    (["--min-symbols", "0"], "--min-symbols"),
+])
+def test_cli_argument_errors(model_file, args, match, capsys):
+    base = {"--model": str(model_file), "--bus": "sim", "--robot": "none"}
+    argv = [] if args == [] else [t for k, v in base.items() for t in (k, v)]
+    code = main(argv + args)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("python -m sw_hps: error:") and match in err
+
+
+def test_cli_bad_model_and_trajectory_files(tmp_path, model_file, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    assert main(["--model", str(bad), "--bus", "sim", "--robot", "none"]) == 2
+    assert "bad.json" in capsys.readouterr().err
+    assert main(["--model", str(model_file), "--bus", "sim", "--robot", "none",
+                 "--sim-trajectory", str(tmp_path / "none.csv")]) == 2
+    assert "none.csv" in capsys.readouterr().err
+
+
+def test_cli_unopenable_bus_is_one_line(tmp_path, model_file, capsys):
+    code = main(["--model", str(model_file), "--bus", "uio", "--uio", str(tmp_path / "uio9"),
+                 "--robot", "none"])
+    err = capsys.readouterr().err
+    assert code == 1 and "uio9" in err and "Traceback" not in err
+
+
+def test_cli_help(capsys):
+    assert main(["--help"]) == 0
+    assert "--sim-trajectory" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_cli_signals_exit_cleanly(model_file, signum):
+    process = subprocess.Popen([sys.executable, "-m", "sw_hps", "--model", str(model_file),
+                                "--bus", "sim", "--robot", "none"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 20
+        line = ""
+        while "running" not in line and time.monotonic() < deadline:
+            line = process.stderr.readline()
+        assert "running" in line
+        process.send_signal(signum)
+        out, err = process.communicate(timeout=10)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, err
+    assert "Traceback" not in err and "stopping" in err
+
+
+def test_simulate_trajectory_builds_without_running():
+    run = simulate_trajectory(MODELS, *gesture_frames("back"))
+    assert run.results == [] and run.app.state is State.INIT
+    assert run.run().recognised == ["back"] and run.finished()
