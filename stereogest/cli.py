@@ -11,7 +11,7 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order a user meets them.
-COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures")
+COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures", "train", "classify")
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

@@ -50,7 +50,7 @@ def _matrix(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     return arr
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DiscreteHMM:
     """One discrete HMM: ``pi`` (N,), ``A`` (N, N), ``B`` (N, M); validated."""
     pi: np.ndarray
@@ -149,7 +149,7 @@ class ForwardStream:
         return self._log.copy()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GestureModels:
     """One HMM per gesture class, as stored in a model file."""
     class_names: tuple[str, ...]

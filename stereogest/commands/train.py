@@ -1,0 +1,228 @@
+"""Train one discrete left-right HMM per gesture class with Baum-Welch (thesis
+§7.4, eq. 29-33) from a labelled trajectory dataset, and write the model file
+the board application loads. With --cv-states, first cross-validate every
+number of states in the range (thesis Fig. 108: JSON and PNG report), then
+train the final models on all the data with the best one.
+
+Trajectories become orientation symbols through the camera front end (the
+FPGA's centroid smoothing and gesture spotting), or, with --resample N, as pen
+strokes resampled to N points equally spaced along the path."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+NAME = "train"
+HELP = "train the gesture HMMs (optionally choosing the number of states by cross-validation)"
+
+_DEFAULT_STATES = 5
+_DEFAULT_FOLDS = 10
+
+
+def add_arguments(p):
+    from recognition.hmm_train import (DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER,
+                                       DEFAULT_TOL, MAX_STATES)
+    p.add_argument("data", metavar="DATA.npz",
+                   help="trajectory dataset (points, offsets, label; optional subject)")
+    p.add_argument("-o", "--output", metavar="MODEL.json", required=True,
+                   help="model file to write")
+    p.add_argument("--states", type=int, default=None, metavar="N",
+                   help=f"states per model, 1..{MAX_STATES} (default {_DEFAULT_STATES}; "
+                        "not with --cv-states)")
+    p.add_argument("--cv-states", metavar="RANGE", default=None,
+                   help="cross-validate these state counts, e.g. 2-20 or 3,5,8, then train "
+                        "with the best")
+    p.add_argument("--folds", type=int, default=None, metavar="K",
+                   help=f"folds of the stratified cross-validation, 2..samples "
+                        f"(default {_DEFAULT_FOLDS})")
+    p.add_argument("--groups", metavar="KEY", default=None,
+                   help="cross-validate leave-one-group-out over this per-trajectory key of "
+                        "DATA.npz (e.g. subject) instead of k folds")
+    p.add_argument("--resample", type=int, default=None, metavar="N",
+                   help="pen front end: resample each path to N points, 2..4096 "
+                        "(default: camera front end)")
+    p.add_argument("--tol", type=float, default=DEFAULT_TOL,
+                   help="stop Baum-Welch when the log-likelihood improves by less than this")
+    p.add_argument("--max-iter", type=int, default=DEFAULT_MAX_ITER, metavar="I",
+                   help="most Baum-Welch re-estimations, >= 1")
+    p.add_argument("--emission-floor", type=float, default=0.0, metavar="F",
+                   help="lowest emission probability after each re-estimation, 0 <= F < 1/8 "
+                        "(0 = thesis; e.g. 1e-3 keeps one unseen symbol from being fatal)")
+    p.add_argument("--expected-length", type=int, default=DEFAULT_EXPECTED_LENGTH, metavar="T",
+                   help="expected symbols per gesture (T of the initial model, eq. 29-33), "
+                        ">= states")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="run the cross-validation on this Dask scheduler (tcp://host:8786)")
+    p.add_argument("--jobs", type=int, default=None, metavar="J",
+                   help="local worker processes for the cross-validation (default: CPUs)")
+    p.add_argument("--seed", type=int, default=0, metavar="S",
+                   help="seed of the fold shuffle (default 0)")
+    p.add_argument("--report", metavar="PREFIX", default=None,
+                   help="cross-validation report PREFIX.json and PREFIX.png "
+                        "(default: MODEL without .json, plus -cv)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def parse_state_range(text: str) -> list[int]:
+    """``"2-20"``, ``"5"`` or ``"3,5,8-10"`` to a sorted list of state counts."""
+    from recognition.hmm_train import MAX_STATES
+    allowed = f"A-B or a comma list, states in 1..{MAX_STATES}, A <= B"
+    counts = set()
+    try:
+        for part in text.split(","):
+            lo, sep, hi = part.strip().partition("-")
+            lo = int(lo)
+            hi = int(hi) if sep else lo
+            if not 1 <= lo <= hi <= MAX_STATES:
+                raise ValueError
+            counts.update(range(lo, hi + 1))
+    except ValueError:
+        raise ValueError(f"--cv-states must be {allowed}, got {text!r}") from None
+    return sorted(counts)
+
+
+def _check_options(args) -> list[int] | None:
+    from recognition.features import RESAMPLE_RANGE
+    from recognition.hmm_train import MAX_STATES
+    cv_states = None
+    if args.cv_states is not None:
+        if args.states is not None:
+            raise ValueError("--states and --cv-states exclude each other (--cv-states "
+                             "chooses the number of states)")
+        cv_states = parse_state_range(args.cv_states)
+    else:
+        for option, value in (("--folds", args.folds), ("--groups", args.groups),
+                              ("--scheduler", args.scheduler), ("--jobs", args.jobs),
+                              ("--report", args.report)):
+            if value is not None:
+                raise ValueError(f"{option} applies to cross-validation: give --cv-states too")
+        if args.states is None:
+            args.states = _DEFAULT_STATES
+        if not 1 <= args.states <= MAX_STATES:
+            raise ValueError(f"--states must be in 1..{MAX_STATES}, got {args.states}")
+    if args.folds is not None and not args.folds >= 2:
+        raise ValueError(f"--folds must be >= 2, got {args.folds}")
+    if args.folds is not None and args.groups is not None:
+        raise ValueError("--folds does not apply with --groups (one fold per group)")
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
+    lo, hi = RESAMPLE_RANGE
+    if args.resample is not None and not lo <= args.resample <= hi:
+        raise ValueError(f"--resample must be in {lo}..{hi}, got {args.resample}")
+    if not (math.isfinite(args.tol) and args.tol >= 0):
+        raise ValueError(f"--tol must be a finite number >= 0, got {args.tol}")
+    if args.max_iter < 1:
+        raise ValueError(f"--max-iter must be >= 1, got {args.max_iter}")
+    if not 0.0 <= args.emission_floor < 1.0 / 8:
+        raise ValueError(f"--emission-floor must be in [0, 0.125) (below 1/8 symbols), "
+                         f"got {args.emission_floor}")
+    if args.expected_length < 1:
+        raise ValueError(f"--expected-length must be >= 1, got {args.expected_length}")
+    most = max(cv_states) if cv_states else args.states
+    if most > args.expected_length:
+        option = "--cv-states" if cv_states else "--states"
+        raise ValueError(f"{option} must be <= --expected-length ({args.expected_length}): "
+                         f"the initial model needs T/N >= 1, got {most} states")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    return cv_states
+
+
+def _groups(path: Path, key: str, data):
+    """The per-trajectory values of ``key`` in the dataset."""
+    import numpy as np
+    if key == "subject":
+        if data.subject is None:
+            raise ValueError(f"--groups subject: {path} has no 'subject' array")
+        return data.subject
+    with np.load(path, allow_pickle=False) as arrays:
+        if key not in arrays.files:
+            raise ValueError(f"--groups {key}: {path} has no such key (keys: "
+                             f"{', '.join(sorted(arrays.files))})")
+        values = arrays[key]
+    if values.shape != (len(data),) or values.dtype.kind not in "iuUS":
+        raise ValueError(f"--groups {key}: must hold one integer or string per trajectory "
+                         f"({len(data)}), got shape {values.shape} dtype {values.dtype}")
+    return values
+
+
+def run(args) -> int:
+    from recognition.crossval import cross_validate, write_cv_report
+    from recognition.datasets import load_trajectories
+    from recognition.features import sequences
+    from recognition.hmm_train import train_models
+    from sw_hps.hmm import save_models
+
+    cv_states = _check_options(args)
+    say = (lambda text: None) if args.quiet else \
+        (lambda text: print(text, file=sys.stderr, flush=True))
+    start = time.perf_counter()
+    data_path = Path(args.data)
+    data = load_trajectories(data_path)
+    groups = _groups(data_path, args.groups, data) if args.groups is not None else None
+    front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
+    say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
+        f"front end: {front_end}")
+    seqs = sequences(data, resample=args.resample)
+    empty = sum(1 for s in seqs if len(s) == 0)
+    if empty:
+        say(f"{empty} trajectories give no symbol (ignored in training)")
+    options = {"tol": args.tol, "max_iter": args.max_iter,
+               "emission_floor": args.emission_floor,
+               "expected_length": args.expected_length}
+    meta = {"dataset": str(data_path), "resample": args.resample,
+            "front_end": "camera" if args.resample is None else "pen"}
+    summary = {"output": str(args.output), "classes": list(data.class_names),
+               "sequences": len(seqs)}
+
+    states = args.states
+    if cv_states is not None:
+        folds = _DEFAULT_FOLDS if args.folds is None else args.folds
+
+        def progress(done, total, num_states, fold, accuracy):
+            say(f"cv: {done}/{total} jobs ({num_states} states, fold {fold}: "
+                f"{100 * accuracy:.1f} %, {time.perf_counter() - start:.0f} s)")
+
+        where = f"Dask scheduler {args.scheduler}" if args.scheduler else \
+            f"{args.jobs or os.cpu_count()} local process(es)"
+        say(f"cross-validating {cv_states[0]}-{cv_states[-1]} states on {where}")
+        result = cross_validate(seqs, data.label, cv_states, folds=folds, seed=args.seed,
+                                groups=groups, progress=progress, scheduler=args.scheduler,
+                                jobs=args.jobs, class_names=data.class_names, **options)
+        prefix = Path(args.report) if args.report is not None else \
+            Path(args.output).with_suffix("").with_name(Path(args.output).stem + "-cv")
+        json_path = prefix.with_name(prefix.name + ".json")
+        png_path = prefix.with_name(prefix.name + ".png")
+        write_cv_report(result, json_path, png_path)
+        scheme = (f"{result.folds}-fold" if result.scheme == "stratified"
+                  else f"leave-one-{args.groups}-out ({result.folds} groups)")
+        print(f"{scheme} cross-validation, {len(seqs)} gestures")
+        print("states  accuracy")
+        for count, accuracy in zip(result.state_counts, result.accuracy):
+            mark = "  <- best" if count == result.best_states else ""
+            print(f"{count:6d}  {100 * accuracy:7.2f} %{mark}")
+        states = result.best_states
+        meta["cv_accuracy"] = result.best_accuracy
+        meta["cv"] = {"scheme": result.scheme, "folds": result.folds, "seed": args.seed,
+                      "groups": args.groups, "state_counts": list(result.state_counts),
+                      "accuracy": list(result.accuracy), "best_states": result.best_states,
+                      "report": str(json_path)}
+        summary.update(cv_best_states=states, cv_accuracy=result.best_accuracy,
+                       report=[str(json_path), str(png_path)])
+
+    say(f"training {len(data.class_names)} models of {states} states on all {len(seqs)} "
+        "trajectories")
+    models = train_models(seqs, data.label, data.class_names, states, meta=meta, **options)
+    save_models(models, args.output)
+    training = models.meta["training"]
+    summary.update(states=states,
+                   iterations={k: v["iterations"] for k, v in training.items()},
+                   converged=all(v["converged"] for v in training.values()),
+                   seconds=round(time.perf_counter() - start, 2))
+    say(f"wrote {args.output}")
+    print(json.dumps(summary))
+    return 0

@@ -1,0 +1,220 @@
+"""The train and classify subcommands, called in-process: a round trip on a tiny
+synthetic dataset, cross-validation with its report, model meta, and one-line
+errors (exit status 2)."""
+import json
+
+import numpy as np
+import pytest
+
+import stereogest.cli as cli
+from recognition.datasets import TrajectorySet, save_trajectories
+from recognition.features import sequences
+from sw_hps.hmm import load_models
+
+STROKES = {"right": (1.0, 0.0), "up": (0.0, -1.0), "down-left": (-0.7, 0.7)}
+
+
+def strokes(per_class=6, seed=0, extra_label=None):
+    """Pen strokes: straight lines of 3 directions with a wobble, uneven sampling;
+    subject = index within the class modulo 3."""
+    rng = np.random.default_rng(seed)
+    trajs, labels, subjects = [], [], []
+    names = list(STROKES) + ([extra_label] if extra_label else [])
+    for name in names:
+        dx, dy = STROKES.get(name, (0.0, 1.0))
+        for i in range(per_class):
+            u = np.sort(rng.random(int(rng.integers(20, 40))))
+            wobble = 8 * np.sin(2 * np.pi * u * rng.uniform(1, 2)) + rng.normal(0, 1, u.size)
+            x = 300 + 200 * u * dx - wobble * dy
+            y = 300 + 200 * u * dy + wobble * dx
+            trajs.append(np.column_stack([x, y]))
+            labels.append(name)
+            subjects.append(i % 3)
+    return TrajectorySet.from_list(trajs, labels, subjects)
+
+
+def run(capsys, *argv):
+    status = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def assert_one_line_error(err, command, *words):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"stereogest {command}: error: ")
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    path = tmp_path_factory.mktemp("data") / "strokes.npz"
+    save_trajectories(strokes(), path)
+    return path
+
+
+FAST = ["--tol", "1e-3", "--max-iter", "200", "--expected-length", "30",
+        "--emission-floor", "1e-3"]
+
+
+def test_train_and_classify_round_trip(tmp_path, capsys, dataset):
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", dataset, "-o", model, "--states", "3",
+                           "--resample", "32", *FAST)
+    assert status == 0, err
+    summary = json.loads(out.strip().splitlines()[-1])
+    assert summary["states"] == 3 and summary["sequences"] == 18 and summary["converged"]
+    assert "training 3 models" in err                   # progress on stderr
+    models = load_models(model)
+    assert models.class_names == ("down-left", "right", "up")
+    assert [m.num_states for m in models.models] == [3, 3, 3]
+    meta = models.meta
+    assert (meta["states"], meta["resample"], meta["emission_floor"], meta["tol"],
+            meta["max_iter"], meta["expected_length"]) == (3, 32, 1e-3, 1e-3, 200, 30)
+    assert meta["dataset"] == str(dataset) and "cv_accuracy" not in meta
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]
+
+    status, out, err = run(capsys, "classify", model, dataset)
+    assert status == 0 and err == ""
+    report = json.loads(out)
+    assert report["resample"] == 32                     # from the model's meta
+    assert report["samples"] == 18 and report["rejected"] == 0
+    assert report["class_names"] == ["down-left", "right", "up"]
+    assert report["accuracy"] == 1.0
+    assert report["confusion"] == [[6, 0, 0], [0, 6, 0], [0, 0, 6]]
+    # The same decisions as the library.
+    seqs = sequences(strokes(), resample=32)
+    assert all(models.class_names[models.classify(s)] == label
+               for s, label in zip(seqs, strokes().label))
+
+
+def test_classify_counts_unknown_labels_and_overrides_resample(tmp_path, capsys, dataset):
+    model = tmp_path / "model.json"
+    assert run(capsys, "train", dataset, "-o", model, "--states", "2", "--resample", "24",
+               *FAST, "--quiet")[0] == 0
+    other = tmp_path / "other.npz"
+    save_trajectories(strokes(per_class=2, seed=5, extra_label="circle"), other)
+    status, out, err = run(capsys, "classify", model, other, "--resample", "16")
+    assert status == 0, err
+    report = json.loads(out)
+    assert report["resample"] == 16 and report["samples"] == 8
+    assert report["unknown_labels"] == ["circle"] and report["rejected"] >= 2
+    assert sum(map(sum, report["confusion"])) == 8 - report["rejected"]
+    assert report["accuracy"] == report["correct"] / 8
+
+
+def test_train_with_cross_validation(tmp_path, capsys, dataset):
+    model = tmp_path / "out" / "gestures.json"
+    model.parent.mkdir()
+    status, out, err = run(capsys, "train", dataset, "-o", model, "--cv-states", "1-3",
+                           "--folds", "3", "--jobs", "1", "--seed", "4", "--resample", "32",
+                           *FAST)
+    assert status == 0, err
+    assert "cv: 9/9 jobs" in err
+    lines = out.strip().splitlines()
+    assert "3-fold cross-validation" in lines[0]
+    summary = json.loads(lines[-1])
+    report_json = model.parent / "gestures-cv.json"
+    assert summary["report"] == [str(report_json), str(model.parent / "gestures-cv.png")]
+    report = json.loads(report_json.read_text())
+    assert report["state_counts"] == [1, 2, 3] and report["folds"] == 3 and report["seed"] == 4
+    best = report["best_states"]
+    assert summary["states"] == summary["cv_best_states"] == best
+    models = load_models(model)
+    assert models.meta["states"] == best
+    assert models.meta["cv_accuracy"] == report["best_accuracy"] == summary["cv_accuracy"]
+    assert [m.num_states for m in models.models] == [best] * 3
+    assert (model.parent / "gestures-cv.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_train_leave_one_subject_out_with_report_prefix(tmp_path, capsys, dataset):
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", dataset, "-o", model, "--cv-states", "2",
+                           "--groups", "subject", "--jobs", "1", "--report", tmp_path / "logo",
+                           "--resample", "32", *FAST, "--quiet")
+    assert status == 0, err
+    assert err == ""
+    report = json.loads((tmp_path / "logo.json").read_text())
+    assert report["scheme"] == "leave-one-group-out" and report["groups"] == [0, 1, 2]
+    assert load_models(model).meta["cv"]["groups"] == "subject"
+
+
+def test_train_camera_front_end(tmp_path, capsys):
+    """Per-frame centroids with rest before and after: the FPGA's feature chain."""
+    rng = np.random.default_rng(1)
+    trajs, labels = [], []
+    for name, (dx, dy) in STROKES.items():
+        for _ in range(4):
+            move = np.linspace(0, 1, int(rng.integers(30, 40)))[:, None] * [dx, dy] * 200
+            path = np.concatenate([np.zeros((20, 2)), move, np.repeat(move[-1:], 25, 0)])
+            trajs.append(path + 300 + rng.normal(0, 0.5, path.shape))
+            labels.append(name)
+    data = tmp_path / "camera.npz"
+    save_trajectories(TrajectorySet.from_list(trajs, labels), data)
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", data, "-o", model, "--states", "2", *FAST)
+    assert status == 0, err
+    assert load_models(model).meta["resample"] is None
+    status, out, _ = run(capsys, "classify", model, data)
+    report = json.loads(out)
+    assert report["resample"] is None and report["accuracy"] == 1.0
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--states", "0"], ["--states"]),
+    (["--states", "65"], ["--states"]),
+    (["--states", "40"], ["--states", "--expected-length"]),
+    (["--cv-states", "5-2"], ["--cv-states", "5-2"]),
+    (["--cv-states", "0-3"], ["--cv-states"]),
+    (["--cv-states", "a"], ["--cv-states"]),
+    (["--cv-states", "2-3", "--folds", "1"], ["--folds"]),
+    (["--cv-states", "2-3", "--states", "3"], ["--states", "--cv-states"]),
+    (["--folds", "3"], ["--folds", "--cv-states"]),
+    (["--cv-states", "2", "--groups", "person"], ["--groups", "person"]),
+    (["--cv-states", "2", "--jobs", "0"], ["--jobs"]),
+    (["--emission-floor", "0.5"], ["--emission-floor"]),
+    (["--tol", "-1"], ["--tol"]),
+    (["--max-iter", "0"], ["--max-iter"]),
+    (["--resample", "1"], ["--resample"]),
+])
+def test_train_errors_name_the_option(tmp_path, capsys, dataset, argv, words):
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", dataset, "-o", model, "--expected-length", "30",
+                           *argv)
+    assert status == 2
+    assert_one_line_error(err, "train", *words)
+    assert not model.exists()
+
+
+def test_file_errors(tmp_path, capsys, dataset):
+    model = tmp_path / "model.json"
+    status, _, err = run(capsys, "train", tmp_path / "missing.npz", "-o", model)
+    assert status == 2
+    assert_one_line_error(err, "train", "missing.npz")
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not a zip file")
+    status, _, err = run(capsys, "train", garbage, "-o", model)
+    assert status == 2
+    assert_one_line_error(err, "train", "garbage.npz")
+    assert not model.exists()
+
+    status, _, err = run(capsys, "classify", tmp_path / "none.json", dataset)
+    assert status == 2
+    assert_one_line_error(err, "classify", "none.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "stereogest-hmm", "version": 1, "class_names": ["a"], '
+                   '"models": [{"pi": [1], "A": [[0.5]], "B": [[1]]}]}')
+    status, _, err = run(capsys, "classify", bad, dataset)
+    assert status == 2
+    assert_one_line_error(err, "classify", "bad.json", "A rows")
+    bad.write_text("{")
+    assert run(capsys, "classify", bad, dataset)[0] == 2
+    assert run(capsys, "train", dataset, "-o", model, "--states", "2", "--resample", "32",
+               *FAST, "--quiet")[0] == 0
+    status, _, err = run(capsys, "classify", model, garbage)
+    assert status == 2
+    assert_one_line_error(err, "classify", "garbage.npz")
+    status, _, err = run(capsys, "classify", model, dataset, "--resample", "x")
+    assert status == 2
+    assert_one_line_error(err, "classify", "--resample")
