@@ -30,6 +30,8 @@ __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "DiscreteHMM", "GestureModels",
 MODEL_FORMAT = "stereogest-hmm"
 MODEL_VERSION = 1
 _ROW_TOLERANCE = 1e-6
+#: Symbols between rescalings of the forward vector in ForwardStream.feed.
+_RESCALE_EVERY = 4
 
 
 def _matrix(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
@@ -110,6 +112,12 @@ class ForwardStream:
             self._a[i, :s, :s] = m.A
             self._a[i, s:, s:] = np.eye(n - s)
             self._b[i, :, :s] = m.B.T
+        # The same models as one block-diagonal chain, for whole sequences (feed).
+        self._pi_flat = self._pi.reshape(-1)
+        self._a_block = np.zeros((k * n, k * n))
+        for i in range(k):
+            self._a_block[i * n:(i + 1) * n, i * n:(i + 1) * n] = self._a[i]
+        self._b_flat = self._b.transpose(1, 0, 2).reshape(self.num_symbols, k * n)
         self.reset()
 
     def reset(self) -> None:
@@ -138,9 +146,38 @@ class ForwardStream:
         return self._log.copy()
 
     def feed(self, symbols) -> np.ndarray:
-        """Take a whole sequence; return the log-likelihoods so far."""
-        for s in np.asarray(symbols, dtype=np.int64).reshape(-1):
-            self.update(int(s))
+        """Take a whole sequence; return the log-likelihoods so far.
+
+        Same result as one :meth:`update` per symbol, computed on the
+        block-diagonal chain of all models with the logs taken once at the end.
+        """
+        seq = np.asarray(symbols).reshape(-1)
+        if seq.size == 0:
+            return self.log_likelihoods()
+        if seq.dtype.kind not in "iu" or seq.min() < 0 or seq.max() >= self.num_symbols:
+            raise ValueError(f"symbols must be integers in [0, {self.num_symbols - 1}]")
+        k, n = self._pi.shape
+        emissions = self._b_flat[seq]
+        scales = []
+        alpha = None if self._alpha is None else self._alpha.reshape(-1)
+        last = seq.size - 1
+        for t in range(seq.size):
+            if alpha is None:
+                alpha = self._pi_flat * emissions[t]
+            else:
+                alpha = (alpha @ self._a_block) * emissions[t]
+            # Rescale every _RESCALE_EVERY symbols: each symbol shrinks the
+            # forward vector by at most its emission probabilities, far from
+            # float64's underflow in so few steps, and saves most of the calls.
+            if t % _RESCALE_EVERY == _RESCALE_EVERY - 1 or t == last:
+                per_model = alpha.reshape(k, n)
+                scale = per_model.sum(axis=1)
+                scales.append(scale)
+                alpha = (per_model / np.where(scale > 0, scale, 1.0)[:, None]).reshape(-1)
+        with np.errstate(divide="ignore"):
+            self._log = self._log + np.log(scales).sum(axis=0)
+        self._alpha = alpha.reshape(k, n)
+        self.length += seq.size
         return self.log_likelihoods()
 
     def log_likelihoods(self) -> np.ndarray:
