@@ -15,27 +15,12 @@ from sim.images import read_array, read_grey
 from sim.model.pipeline import PipelineParams, run_clip
 from sim.model.stereo import stereo_match
 from sim.render import render_clip
+from tests.cli_helpers import assert_one_line_error, run
 
 TSUKUBA = Path(__file__).resolve().parent.parent / "data" / "middlebury" / "tsukuba"
 VENUS = TSUKUBA.parent / "venus"
 OPTIONS = ["--census-window", "7", "--hamming-window", "13", "--max-disparity", "32",
            "--lrcc-threshold", "8"]
-
-
-def run(capsys, *argv):
-    """(exit status, stdout, stderr) of ``stereogest argv``."""
-    status = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def assert_one_line_error(err, command, *words):
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith(f"stereogest {command}: error: ")
-    assert "Traceback" not in err
-    for word in words:
-        assert word in lines[0], (word, lines[0])
 
 
 def files_in(path):

@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 
-import stereogest.cli as cli
 from recognition.datasets import TrajectorySet, save_trajectories
 from recognition.features import sequences
 from sw_hps.hmm import load_models
+from tests.cli_helpers import assert_one_line_error, run
 
 STROKES = {"right": (1.0, 0.0), "up": (0.0, -1.0), "down-left": (-0.7, 0.7)}
 
@@ -31,20 +31,6 @@ def strokes(per_class=6, seed=0, extra_label=None):
             labels.append(name)
             subjects.append(i % 3)
     return TrajectorySet.from_list(trajs, labels, subjects)
-
-
-def run(capsys, *argv):
-    status = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def assert_one_line_error(err, command, *words):
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith(f"stereogest {command}: error: ")
-    for word in words:
-        assert word in lines[0], (word, lines[0])
 
 
 @pytest.fixture(scope="module")
