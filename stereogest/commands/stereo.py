@@ -1,13 +1,18 @@
-"""Compute the disparity map of a rectified stereo pair with the golden model
-(sparse census, SHD, best-of selectors, left-right check, median: thesis §6.2)
-and write it as a 16-bit PNG whose value is the disparity in pixels
-(0 = invalid)."""
+"""Compute the disparity map of a rectified stereo pair (sparse census, SHD,
+best-of selectors, left-right check, median: thesis §6.2) and write it as a
+16-bit PNG whose value is the disparity in pixels (0 = invalid). The golden
+model computes it by default; --backend amaranth or verilator runs the
+hardware (hdl/stereo_matcher.py) in a simulator instead and writes the same
+PNG."""
 from __future__ import annotations
 
 import json
 import time
 
 NAME = "stereo"
+BACKENDS = ("model", "amaranth", "verilator")
+#: The Amaranth simulator runs a few thousand cycles per second.
+AMARANTH_MAX_PIXELS = 16384
 HELP = "disparity map of a stereo pair (16-bit PNG, 0 = invalid)"
 
 
@@ -33,7 +38,14 @@ def add_arguments(p):
     p.add_argument("--no-disparity-median", action="store_true",
                    help="skip the 3x3 median of the disparity map")
     p.add_argument("--threads", type=int, default=None,
-                   help="worker threads for the cost stage (default: CPUs, at most 4)")
+                   help="worker threads for the cost stage (default: CPUs, at most 4; "
+                        "model backend only)")
+    p.add_argument("--backend", choices=BACKENDS, default="model",
+                   help="model: the numpy golden model; amaranth: the hardware in the "
+                        "Amaranth simulator (small images only, at most "
+                        f"{AMARANTH_MAX_PIXELS} pixels); verilator: the emitted Verilog "
+                        "under Verilator (first use of a parameter set builds it, cached "
+                        "under build/verilator/)")
 
 
 def run(args) -> int:
@@ -45,19 +57,69 @@ def run(args) -> int:
     if left.shape != right.shape:
         raise ValueError(f"LEFT is {left.shape[1]}x{left.shape[0]} but RIGHT is "
                          f"{right.shape[1]}x{right.shape[0]}: the pair must have one size")
+    backend = getattr(args, "backend", "model")
     start = time.perf_counter()
-    result = stereo_match(left, right, census_window=args.census_window,
-                          hamming_window=args.hamming_window,
-                          max_disparity=args.max_disparity,
-                          lrcc_threshold=args.lrcc_threshold,
-                          no_match_cost=args.no_match_cost,
-                          prefilter_median=args.prefilter_median,
-                          disparity_median=not args.no_disparity_median,
-                          threads=args.threads)
+    # The model validates every parameter (and, for the hardware backends, gives
+    # the reference the hardware is equal to).
+    if backend == "model":
+        result = stereo_match(left, right, census_window=args.census_window,
+                              hamming_window=args.hamming_window,
+                              max_disparity=args.max_disparity,
+                              lrcc_threshold=args.lrcc_threshold,
+                              no_match_cost=args.no_match_cost,
+                              prefilter_median=args.prefilter_median,
+                              disparity_median=not args.no_disparity_median,
+                              threads=args.threads)
+        disp, extra = result.disparity, {}
+    else:
+        disp, extra = _run_hardware(backend, left, right, args)
     seconds = time.perf_counter() - start
-    write_png(args.output, result.disparity, bits=16)
-    disp = result.disparity
-    print(json.dumps({"output": str(args.output), "width": disp.shape[1], "height": disp.shape[0],
-                      "pct_invalid": round(100.0 * float((disp == 0).mean()), 3),
-                      "seconds": round(seconds, 3)}))
+    write_png(args.output, disp, bits=16)
+    report = {"output": str(args.output), "width": disp.shape[1], "height": disp.shape[0],
+              "pct_invalid": round(100.0 * float((disp == 0).mean()), 3),
+              "seconds": round(seconds, 3)}
+    if backend != "model":
+        report.update(backend=backend, **extra)
+    print(json.dumps(report))
     return 0
+
+
+def _run_hardware(backend, left, right, args):
+    """Disparity map from hdl.stereo_matcher.StereoMatcher in a simulator."""
+    import numpy as np
+
+    from sim.model.median import median3x3
+    from sim.model.stereo import check_stereo_params
+
+    h, w = left.shape
+    check_stereo_params(w, h, args.census_window, args.hamming_window, args.max_disparity,
+                        args.lrcc_threshold, args.no_match_cost)
+    if args.prefilter_median:
+        # The input median belongs to the camera pipeline, ahead of the matcher.
+        left, right = median3x3(left), median3x3(right)
+    params = dict(census_window=args.census_window, hamming_window=args.hamming_window,
+                  max_disparity=args.max_disparity, no_match_cost=args.no_match_cost,
+                  disparity_median=not args.no_disparity_median)
+    if backend == "verilator":
+        from hdl.verilator_sim import run_matcher
+        try:
+            maps, stats = run_matcher([(left, right)], threshold=args.lrcc_threshold, **params)
+        except (RuntimeError, OSError) as exc:
+            # a failed build or run: one line, not a traceback (the CLI reports ValueError)
+            raise ValueError(f"--backend verilator failed: {str(exc).splitlines()[0]}") from exc
+        return maps[0].astype(np.uint8), {"cycles": stats["cycles"],
+                                          "cycles_per_second": round(stats["cycles_per_second"])}
+    if w * h > AMARANTH_MAX_PIXELS:
+        raise ValueError(f"--backend amaranth takes images of at most {AMARANTH_MAX_PIXELS} "
+                         f"pixels, got {w}x{h}: use --backend verilator")
+    from hdl.sim_support import field, pack, run_stream
+    from hdl.stereo_matcher import StereoMatcher
+    dut = StereoMatcher(w, h, **params)
+    layout = dut.i_stream.payload.shape()
+    beats = [pack(layout, {"left": a, "right": b}) for a, b in zip(left.ravel(), right.ravel())]
+    cycles = []
+    out = run_stream(dut, beats, use_ready=True, extra_cycles=dut.latency + 16,
+                     setup=lambda ctx: ctx.set(dut.threshold, args.lrcc_threshold),
+                     out_cycles=cycles)
+    disp = field(dut.o_stream.payload.shape(), out, "disparity").reshape(h, w)
+    return disp.astype(np.uint8), {"cycles": cycles[-1] + 1}

@@ -1,0 +1,132 @@
+"""Column sums of the SHD window (thesis Figs. 49 and 51): for every disparity,
+the sum of the Hamming distances over the ``hamming_window`` rows of the
+aggregation window, kept in one memory of ``width`` words (eq. 20's
+``width * D * bits`` term) and updated once per pixel:
+
+    C_d(x, y) = C_d(x, y - 1) + H_d(x, y + r) - H_d(x, y - r - 1)
+
+with r = Wh // 2. The entering row ``y + r`` and the leaving row ``y - r - 1``
+are ``Wh`` rows apart: the dual window V1/V2 of Fig. 53 provides both. A row
+outside the frame contributes 0 (its term is masked), and the first row of a
+frame starts from 0, so frames never mix.
+
+A pixel with x < d has no right partner: every term of its column is
+``no_match_cost``, so its column sum is ``no_match_cost`` times the number of
+window rows inside the frame, one register for the whole row. Disparity d
+therefore keeps only the ``width - d`` columns x >= d, in a memory of its own
+(address x - d): ``D * width - D * (D - 1) / 2`` words in all.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Module, Mux, Signal, signed
+from amaranth.lib import data, memory, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from ._util import RasterPosition, bits_for, check_geometry, check_int, check_odd_window, delay
+
+__all__ = ["ColumnSum"]
+
+
+class ColumnSum(wiring.Component):
+    """Per-disparity column sums over ``hamming_window`` rows.
+
+    Parameters
+    ----------
+    width, height : frame size (width in [8, 4096], height in [2, 4096])
+    hamming_window : odd int in [1, 63]
+        Wh, rows summed.
+    max_disparity : int in [1, 256]
+        D, the number of sums per pixel.
+    max_term : int in [1, 64]
+        Largest Hamming term (the census bits).
+    no_match_cost : int in [0, max_term]
+        The term of a pixel with x < d (the ``enter`` / ``leave`` inputs of those
+        positions are not used).
+
+    Ports
+    -----
+    i_stream : payload ``{first, enter, leave}`` at raster position (x, y'):
+        ``enter[d]`` = H_d(x, y'), ``leave[d]`` = H_d(x, y' - Wh).
+    o_stream : payload ``{first, real, csum}``: ``csum[d]`` = C_d(x, y' - r),
+        the column sum of position (x, y' - r); ``lag`` = r * width, ``cycles`` = 2.
+    """
+
+    cycles = 2
+
+    def __init__(self, width: int, height: int, hamming_window: int, max_disparity: int,
+                 max_term: int, no_match_cost: int = 0):
+        self.width, self.height = check_geometry(width, height)
+        self.hamming_window = check_odd_window("hamming_window", hamming_window, 1, 63)
+        self.max_disparity = check_int("max_disparity", max_disparity, 1, 256)
+        self.max_term = check_int("max_term", max_term, 1, 64)
+        self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, self.max_term)
+        if self.max_disparity > self.width:
+            raise ValueError(f"max_disparity must be in [1, {self.width}] (the width), "
+                             f"got {self.max_disparity}")
+        self.term_bits = bits_for(self.max_term)
+        self.sum_bits = bits_for(self.hamming_window * self.max_term)
+        self.radius = self.hamming_window // 2
+        self.lag = self.radius * self.width
+        self.memory_bits = sum(self.width - d for d in range(self.max_disparity)) * self.sum_bits
+        nd = self.max_disparity
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout({
+                "first": 1,
+                "enter": data.ArrayLayout(self.term_bits, nd),
+                "leave": data.ArrayLayout(self.term_bits, nd)}), always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout({
+                "first": 1, "real": 1,
+                "csum": data.ArrayLayout(self.sum_bits, nd)}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        w, h, wh, nd, cb = self.width, self.height, self.hamming_window, self.max_disparity, \
+            self.sum_bits
+        beat = self.i_stream.valid
+        p = self.i_stream.payload
+        pos = RasterPosition(w, h, 0, "row").elaborate(m, beat, p.first)
+        out_pos = RasterPosition(w, h, self.lag, "out").elaborate(m, beat, p.first)
+        enter_ok = pos.registered(lambda x, y: (y >= 0) & (y < h), "enter")
+        leave_ok = pos.registered(lambda x, y: (y >= wh) & (y < h + wh), "leave")
+        restart = pos.registered(lambda x, y: y <= 0, "restart")
+
+        # Cycle 1: the difference of the entering and leaving terms; the read words.
+        deltas = []
+        for d in range(nd):
+            delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}")
+            m.d.sync += delta.eq(Mux(enter_ok, p.enter[d], 0) - Mux(leave_ok, p.leave[d], 0))
+            deltas.append(delta)
+        restart_1 = delay(m, restart, 1, "restart")
+        valid_2 = delay(m, beat, 2, "valid")
+        # The column sum of the positions without partner: no_match_cost per row inside.
+        nmc = self.no_match_cost
+        no_match = Signal(cb)
+        with m.If(beat & pos.registered(lambda x, y: x == 0, "row_start")):
+            m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
+                                    - Mux(leave_ok, nmc, 0))
+        # Cycle 2: the new column sums, written back and output.
+        for d in range(nd):
+            m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
+            rd = mem.read_port()
+            wr = mem.write_port()
+            addr = Signal(range(w - d), name=f"addr_{d}")
+            partner = pos.registered(lambda x, y, d=d: x >= d, f"partner_{d}") if d else 1
+            m.d.comb += [addr.eq(pos.registered(lambda x, y, d=d: x - d, f"addr_{d}",
+                                                range(w - d)) if d else pos.x),
+                         rd.addr.eq(addr), rd.en.eq(beat & partner)]
+            partner_2 = delay(m, partner, 2, f"partner2_{d}") if d else 1
+            s_new = Signal(cb, name=f"csum_{d}")
+            m.d.sync += s_new.eq(Mux(restart_1, 0, rd.data) + deltas[d])
+            m.d.comb += [
+                wr.addr.eq(delay(m, addr, 2, f"waddr_{d}")),
+                wr.en.eq(valid_2 & partner_2),
+                wr.data.eq(s_new),
+                self.o_stream.payload.csum[d].eq(Mux(partner_2, s_new, no_match) if d else s_new),
+            ]
+        m.d.comb += [
+            self.o_stream.valid.eq(valid_2),
+            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 2, "first")),
+            self.o_stream.payload.real.eq(delay(m, out_pos.real, 2, "real")),
+        ]
+        return m

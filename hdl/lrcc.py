@@ -1,0 +1,95 @@
+"""Left-right consistency check (thesis eq. 21, Figs. 43 and 56).
+
+Left pixel x with L2R disparity d keeps d when ``|d - R2L(x - d)| < Th`` or when
+its partner x - d lies left of the frame (nothing to check), else it becomes 0
+(invalid). R2L(x - d) for every d in 0 .. D-1 needs the R2L values of right
+pixels x - D + 1 .. x: the selectors emit R2L(x) together with L2R(x + D - 1),
+so the check runs D - 1 beats behind, with a delay line of D - 1 L2R values
+and one of D - 1 R2L values (the R2L delay line of Fig. 56); a D:1 multiplexer
+picks R2L(x - d). The threshold Th is an input port (run-time register).
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Array, Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.matching import MAX_DISPARITY_RANGE
+
+from ._util import RasterPosition, bits_for, check_geometry, check_int, delay
+
+__all__ = ["LeftRightCheck"]
+
+
+class LeftRightCheck(wiring.Component):
+    """Consistency-checked disparity map.
+
+    Parameters
+    ----------
+    width, height : frame size (width in [max(8, D), 4096], height in [2, 4096])
+    max_disparity : int in [1, 256]
+
+    Ports
+    -----
+    threshold : In, Th in 1 .. D (0 rejects every pixel that has a partner)
+    i_stream : payload ``{first, l2r, r2l}`` as emitted by
+        :class:`~hdl.selectors.DisparitySelectors`
+    o_stream : payload ``{first, real, disparity}``, ``lag`` = D - 1,
+        ``cycles`` = 3.
+    """
+
+    cycles = 3
+
+    def __init__(self, width: int, height: int, max_disparity: int):
+        self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
+        self.width, self.height = check_geometry(width, height, min_width=max_disparity)
+        self.disparity_bits = bits_for(self.max_disparity - 1)
+        self.lag = self.max_disparity - 1
+        db = self.disparity_bits
+        super().__init__({
+            "threshold": In(bits_for(self.max_disparity)),
+            "i_stream": In(stream.Signature(data.StructLayout({
+                "first": 1, "l2r": db, "r2l": db}), always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout({
+                "first": 1, "real": 1, "disparity": db}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        nd, db = self.max_disparity, self.disparity_bits
+        beat = self.i_stream.valid
+        p = self.i_stream.payload
+        pos = RasterPosition(self.width, self.height, self.lag, "pix").elaborate(m, beat, p.first)
+
+        l2r_hist = [p.l2r]
+        r2l_hist = [p.r2l]
+        for k in range(1, nd):
+            a = Signal(db, name=f"l2r_dl{k}")
+            b = Signal(db, name=f"r2l_dl{k}")
+            with m.If(beat):
+                m.d.sync += [a.eq(l2r_hist[k - 1]), b.eq(r2l_hist[k - 1])]
+            l2r_hist.append(a)
+            r2l_hist.append(b)
+        d = l2r_hist[nd - 1]
+
+        # Stage 1: R2L of the partner, and whether the partner is outside.
+        d1 = Signal(db)
+        seen = Signal(db)
+        outside = Signal()
+        m.d.sync += [d1.eq(d), seen.eq(Array(r2l_hist)[d]), outside.eq(pos.x < d)]
+        # Stage 2: |d - R2L(x - d)| (both differences in parallel, one multiplexer).
+        d2 = Signal(db)
+        mag = Signal(db)
+        outside2 = Signal()
+        m.d.sync += [d2.eq(d1), outside2.eq(outside),
+                     mag.eq(Mux(d1 >= seen, d1 - seen, seen - d1))]
+        # Stage 3: the check against the threshold.
+        keep = outside2 | (mag < self.threshold)
+        out = self.o_stream.payload
+        m.d.sync += out.disparity.eq(Mux(keep, d2, 0))
+        m.d.comb += [
+            self.o_stream.valid.eq(delay(m, beat, 3, "valid")),
+            out.first.eq(delay(m, pos.is_first, 3, "first")),
+            out.real.eq(delay(m, pos.real, 3, "real")),
+        ]
+        return m

@@ -1,0 +1,112 @@
+"""Best-of selectors: the left-to-right (L2R) and right-to-left (R2L)
+winner-take-all disparity maps (thesis Figs. 45 and 55).
+
+Every best-of cell compares two (cost, disparity) candidates and keeps the
+second only when its cost is strictly smaller ("C1 > C2 takes 2"), so ties keep
+the smaller disparity, as the golden model does.
+
+* L2R: a pipelined binary tree of cells over the D costs of one left pixel
+  (one register stage per tree level).
+* R2L: right pixel x needs the costs of left pixels x .. x + D - 1 at
+  disparities 0 .. D - 1. A chain of D cells, one per disparity, advances one
+  stage per beat: stage k holds the best of disparities 0 .. k for right pixel
+  x - k and takes the cost of disparity k + 1 from the next left pixel. A
+  candidate whose left pixel lies in the next row (x + d > width - 1) is
+  masked, as the model's R2L range d <= width - 1 - x requires.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.matching import MAX_DISPARITY_RANGE
+
+from ._util import RasterPosition, bits_for, check_geometry, check_int, delay
+
+__all__ = ["DisparitySelectors"]
+
+
+class DisparitySelectors(wiring.Component):
+    """L2R and R2L maps from the SHD costs.
+
+    Parameters
+    ----------
+    width, height : frame size (width in [max(8, D), 4096], height in [2, 4096])
+    max_disparity : int in [1, 256]
+    cost_bits : int in [1, 32]
+
+    Ports
+    -----
+    i_stream : payload ``{first, cost}`` (``cost[d]`` of one left pixel)
+    o_stream : payload ``{first, real, l2r, r2l}``, ``cycles`` = tree depth
+        (at least 1), ``lag`` = 0: ``l2r`` is the L2R disparity of the beat's left
+        pixel, ``r2l`` the R2L disparity of the right pixel D - 1 raster
+        positions before it.
+    """
+
+    def __init__(self, width: int, height: int, max_disparity: int, cost_bits: int):
+        self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
+        self.width, self.height = check_geometry(width, height, min_width=max_disparity)
+        self.cost_bits = check_int("cost_bits", cost_bits, 1, 32)
+        self.disparity_bits = bits_for(self.max_disparity - 1)
+        self.levels = (self.max_disparity - 1).bit_length()
+        self.cycles = max(1, self.levels)
+        self.lag = 0
+        db = self.disparity_bits
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout({
+                "first": 1, "cost": data.ArrayLayout(cost_bits, max_disparity)}),
+                always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout({
+                "first": 1, "real": 1, "l2r": db, "r2l": db}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        nd, cb, db = self.max_disparity, self.cost_bits, self.disparity_bits
+        beat = self.i_stream.valid
+        p = self.i_stream.payload
+        pos = RasterPosition(self.width, self.height, 0, "pix").elaborate(m, beat, p.first)
+
+        # L2R: pipelined tree; a pair's second (larger d) wins only if strictly cheaper.
+        nodes = [(p.cost[d], d) for d in range(nd)]
+        level = 0
+        while len(nodes) > 1 or level == 0:
+            nxt = []
+            for k in range(0, len(nodes), 2):
+                if k + 1 < len(nodes):
+                    (ca, da), (cb_, db_) = nodes[k], nodes[k + 1]
+                    take = cb_ < ca
+                    cost, disp = Mux(take, cb_, ca), Mux(take, db_, da)
+                else:
+                    cost, disp = nodes[k]
+                rc = Signal(cb, name=f"l2r_c{level}_{k // 2}")
+                rd = Signal(db, name=f"l2r_d{level}_{k // 2}")
+                m.d.sync += [rc.eq(cost), rd.eq(disp)]
+                nxt.append((rc, rd))
+            nodes = nxt
+            level += 1
+        l2r = nodes[0][1]
+
+        # R2L: chain of best-of cells, advancing on beats.
+        chain_c = [Signal(cb, name=f"r2l_c{k}") for k in range(nd)]
+        chain_d = [Signal(db, name=f"r2l_d{k}") for k in range(nd)]
+        with m.If(beat):
+            m.d.sync += [chain_c[0].eq(p.cost[0]), chain_d[0].eq(0)]
+            for k in range(1, nd):
+                same_row = pos.registered(lambda x, y, k=k: x >= k, f"row_{k}")
+                take = same_row & (p.cost[k] < chain_c[k - 1])
+                m.d.sync += [chain_c[k].eq(Mux(take, p.cost[k], chain_c[k - 1])),
+                             chain_d[k].eq(Mux(take, k, chain_d[k - 1]))]
+        r2l = delay(m, chain_d[nd - 1], self.cycles - 1, "r2l")
+
+        out = self.o_stream.payload
+        m.d.comb += [
+            self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),
+            out.first.eq(delay(m, pos.is_first, self.cycles, "first")),
+            out.real.eq(delay(m, pos.real, self.cycles, "real")),
+            out.l2r.eq(l2r),
+            out.r2l.eq(r2l),
+        ]
+        return m

@@ -1,0 +1,117 @@
+# amaranth: UnusedElaboratable=no
+"""Sum of Hamming distances for every disparity (thesis eq. 3, Figs. 48-51).
+
+Stream order: census codes of the left and right image at the row entering
+the aggregation window (V1) and at the row leaving it, ``Wh`` rows above (V2,
+Fig. 53) -> per disparity d the Hamming distances of the left code at x and
+the right code at x - d (a delay line of D right codes per window; a left
+pixel with x < d has no right partner and costs ``no_match_cost``) ->
+:class:`~hdl.column_sum.ColumnSum` -> :class:`~hdl.window_sum.WindowSum`.
+
+Memory (eq. 20 as built here): the column sums, ``(width * D - D * (D - 1) / 2)
+* ceil(log2(Wh * bits + 1))`` bits; the census row buffers are counted by
+:class:`~hdl.census.SparseCensus`.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.matching import MAX_DISPARITY_RANGE
+
+from ._util import RasterPosition, check_geometry, check_int, check_odd_window, delay
+from .column_sum import ColumnSum
+from .hamming import HammingDistance
+from .window_sum import WindowSum
+
+__all__ = ["SumOfHammingDistances"]
+
+
+class SumOfHammingDistances(wiring.Component):
+    """SHD costs of every disparity for each left pixel.
+
+    Parameters
+    ----------
+    width, height : frame size (width in [max(8, Wh + 1, D), 4096], height in [2, 4096])
+    census_bits : int in [1, 64]
+    hamming_window : odd int in [1, 63]
+        Wh, side of the aggregation window.
+    max_disparity : int in [1, 256]
+        D: disparities 0 .. D-1.
+    no_match_cost : int in [0, census_bits] or None (= census_bits // 3)
+
+    Ports
+    -----
+    i_stream : payload ``{first, left, right, left2, right2}``: the census codes
+        of position (x, y') and of (x, y' - Wh).
+    o_stream : payload ``{first, real, cost}``: ``cost[d]`` = SHD_d at
+        (x - r, y' - r), r = Wh // 2; ``lag`` = r * width + r.
+    """
+
+    def __init__(self, width: int, height: int, census_bits: int, hamming_window: int,
+                 max_disparity: int, no_match_cost: int | None = None):
+        self.census_bits = check_int("census_bits", census_bits, 1, 64)
+        self.hamming_window = check_odd_window("hamming_window", hamming_window, 1, 63)
+        self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
+        self.width, self.height = check_geometry(
+            width, height, min_width=max(hamming_window + 1, max_disparity))
+        if no_match_cost is None:
+            no_match_cost = census_bits // 3
+        self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, census_bits)
+        nd, w, h, wh = self.max_disparity, self.width, self.height, self.hamming_window
+        self._columns = ColumnSum(w, h, wh, nd, census_bits, self.no_match_cost)
+        self._windows = WindowSum(w, h, wh, nd, wh * census_bits)
+        self._ham = [[HammingDistance(census_bits) for _ in range(nd)] for _ in range(2)]
+        self.lag = self._columns.lag + self._windows.lag
+        self.cycles = self._ham[0][0].cycles + self._columns.cycles + self._windows.cycles
+        self.cost_bits = self._windows.sum_bits
+        self.memory_bits = self._columns.memory_bits
+        cb = census_bits
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout({
+                "first": 1, "left": cb, "right": cb, "left2": cb, "right2": cb}),
+                always_ready=True)),
+            "o_stream": Out(stream.Signature(self._windows.o_stream.payload.shape(),
+                                             always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        nd, cb = self.max_disparity, self.census_bits
+        beat = self.i_stream.valid
+        p = self.i_stream.payload
+        pos = RasterPosition(self.width, self.height, 0, "pix").elaborate(m, beat, p.first)
+
+        # Delay lines of the right codes: right[k] = code of raster position x - k.
+        right = {1: [p.right], 2: [p.right2]}
+        for win in (1, 2):
+            src = p.right if win == 1 else p.right2
+            for k in range(1, nd):
+                reg = Signal(cb, name=f"right{win}_{k}")
+                with m.If(beat):
+                    m.d.sync += reg.eq(src if k == 1 else right[win][k - 1])
+                right[win].append(reg)
+
+        m.submodules.columns = cols = self._columns
+        m.submodules.windows = wins = self._windows
+        lh = self._ham[0][0].cycles
+        for d in range(nd):
+            has_partner = delay(m, pos.x >= d, lh, f"partner_{d}")
+            for win, left, field in ((1, p.left, cols.i_stream.payload.enter),
+                                     (2, p.left2, cols.i_stream.payload.leave)):
+                ham = self._ham[win - 1][d]
+                m.submodules[f"ham{win}_{d}"] = ham
+                m.d.comb += [ham.a.eq(left), ham.b.eq(right[win][d])]
+                m.d.comb += field[d].eq(Mux(has_partner, ham.distance, self.no_match_cost))
+        m.d.comb += [
+            cols.i_stream.valid.eq(delay(m, beat, lh, "valid")),
+            cols.i_stream.payload.first.eq(delay(m, p.first, lh, "first")),
+        ]
+        m.d.comb += [
+            wins.i_stream.valid.eq(cols.o_stream.valid),
+            wins.i_stream.payload.first.eq(cols.o_stream.payload.first),
+            wins.i_stream.payload.csum.eq(cols.o_stream.payload.csum),
+        ]
+        wiring.connect(m, wins.o_stream, wiring.flipped(self.o_stream))
+        return m

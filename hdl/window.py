@@ -1,0 +1,140 @@
+"""Moving-window generator: a ``window`` x ``window`` neighbourhood of every
+pixel, optionally a second window ``separation`` rows above it (the dual window
+V1/V2 of thesis Fig. 53, which lets the SHD stage recompute the census codes of
+the row leaving the aggregation window instead of storing them).
+
+Each window row is a shift register of ``window`` pixels; the rows are chained
+through :class:`~hdl.row_buffer.RowBuffer` delay lines: ``width - window`` beats
+behind a window row (its register holds the rest of the row), ``width`` beats
+behind a row no window uses (between V1 and V2). The window centre lags the
+input by ``r`` rows and ``r`` pixels (r = window // 2). Memory:
+``(rows behind a window row) * (width - window) + (other rows) * width`` pixels. Border handling: the
+generator does not replace pixels outside the frame; it outputs, from x/y
+counters, which window rows and columns lie inside the frame, and the consumer
+masks those taps.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Module, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from ._util import (PIXEL_BITS_RANGE, RasterPosition, check_geometry, check_int,
+                    check_odd_window, delay)
+from .row_buffer import RowBuffer
+
+__all__ = ["WindowGenerator"]
+
+
+class WindowGenerator(wiring.Component):
+    """``window`` x ``window`` taps around each pixel (and ``separation`` rows above).
+
+    Parameters
+    ----------
+    width, height : frame size (width in [max(8, window + 2), 4096], height in [2, 4096])
+    pixel_bits : int in [1, 16]
+    window : odd int in [1, 63]
+    separation : int in [0, 255 - window]
+        0: one window (V1). Otherwise a second window V2 whose centre is
+        ``separation`` rows above the centre of V1.
+
+    Ports
+    -----
+    i_stream : payload ``{first, pixel}``
+    o_stream : payload ``{first, real, v1, rows1, cols[, v2, rows2]}`` for the
+        raster position ``r * width + r`` beats before the input beat (V1's
+        centre). ``v1[i][j]`` is the pixel at (x + j - r, y + i - r);
+        ``rows1[i]`` / ``cols[j]`` say whether that row / column is inside the
+        frame; ``v2``, ``rows2`` likewise for centre (x, y - separation).
+    """
+
+    def __init__(self, width: int, height: int, pixel_bits: int, window: int,
+                 separation: int = 0):
+        self.window = check_odd_window("window", window, 1, 63)
+        self.width, self.height = check_geometry(width, height, min_width=window + 2)
+        self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
+        self.separation = check_int("separation", separation, 0, 255 - window)
+        self.radius = window // 2
+        self.lag = self.radius * self.width + self.radius
+        self.cycles = RowBuffer.cycles + 1
+        self.buffer_rows = window - 1 + separation
+        self.used_rows = sorted(set(range(window)) | set(range(separation,
+                                                                separation + window)))
+        short = sum(1 for k in range(1, self.buffer_rows + 1) if k - 1 in self.used_rows)
+        self.memory_bits = (short * (self.width - window)
+                            + (self.buffer_rows - short) * self.width) * self.pixel_bits
+        tap = data.ArrayLayout(data.ArrayLayout(pixel_bits, window), window)
+        fields = {"first": 1, "real": 1, "v1": tap, "rows1": window, "cols": window}
+        if separation:
+            fields.update({"v2": tap, "rows2": window})
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout(
+                {"first": 1, "pixel": pixel_bits}), always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout(fields), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        w, h, win, r, sep = self.width, self.height, self.window, self.radius, self.separation
+        beat = self.i_stream.valid
+        first = self.i_stream.payload.first
+
+        # Window position and border masks, computed at the input beat.
+        pos = RasterPosition(w, h, self.lag, "centre").elaborate(m, beat, first)
+        # (registered flags: comparisons with constants, done for the next position)
+        rows1 = Cat(*[pos.registered(lambda x, y, i=i: (y >= r - i) & (y < h + r - i), f"row1_{i}")
+                      for i in range(win)])
+        cols = Cat(*[pos.registered(lambda x, y, j=j: (x >= r - j) & (x < w + r - j), f"col_{j}")
+                     for j in range(win)])
+        rows2 = Cat(*[pos.registered(lambda x, y, i=i: (y >= sep + r - i) & (y < h + sep + r - i),
+                                     f"row2_{i}") for i in range(win)]) if sep else 0
+
+        # Rows k = 1 .. N above the input row reach the window through delay lines:
+        # behind a window row (whose shift register already holds `win` pixels of
+        # it) a line of width - win beats, behind any other row a line of width.
+        pb = self.pixel_bits
+        used = self.used_rows
+        shift = {k: [Signal(pb, name=f"win_r{k}_c{s}") for s in range(win)] for k in used}
+        short = [k for k in range(1, self.buffer_rows + 1) if k - 1 in used]
+        long_ = [k for k in range(1, self.buffer_rows + 1) if k - 1 not in used]
+        col_valid = delay(m, beat, 1, "col_valid")
+        column = {0: delay(m, self.i_stream.payload.pixel, 1, "col")}
+        lines = []
+        for name, rows, length in (("short", short, w - win), ("long", long_, w)):
+            if not rows:
+                continue
+            rb = RowBuffer(length, len(rows), pb)
+            m.submodules[f"rows_{name}"] = rb
+            m.d.comb += rb.beat.eq(beat)
+            for lane, k in enumerate(rows):
+                column[k] = rb.o_data[lane]
+            lines.append((rb, rows))
+        for rb, rows in lines:
+            for lane, k in enumerate(rows):
+                # sampled the cycle after the beat: the row below as it leaves its
+                # window register (before this beat's shift) or its delay line
+                src = shift[k - 1][win - 1] if k - 1 in used else column[k - 1]
+                m.d.comb += rb.i_data[lane].eq(src)
+        with m.If(col_valid):
+            for k in used:
+                m.d.sync += shift[k][0].eq(column[k])
+                for s in range(1, win):
+                    m.d.sync += shift[k][s].eq(shift[k][s - 1])
+
+        out = self.o_stream.payload
+        for i in range(win):
+            for j in range(win):
+                m.d.comb += out.v1[i][j].eq(shift[win - 1 - i][win - 1 - j])
+                if sep:
+                    m.d.comb += out.v2[i][j].eq(shift[sep + win - 1 - i][win - 1 - j])
+        cyc = self.cycles
+        m.d.comb += [
+            self.o_stream.valid.eq(delay(m, beat, cyc, "valid")),
+            out.first.eq(delay(m, pos.is_first, cyc, "first")),
+            out.real.eq(delay(m, pos.real, cyc, "real")),
+            out.rows1.eq(delay(m, rows1, cyc, "rows1")),
+            out.cols.eq(delay(m, cols, cyc, "cols")),
+        ]
+        if sep:
+            m.d.comb += out.rows2.eq(delay(m, rows2, cyc, "rows2"))
+        return m

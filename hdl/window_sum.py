@@ -1,0 +1,114 @@
+"""Window sums of the SHD (thesis Figs. 49 and 51): for every disparity, the sum
+of ``hamming_window`` consecutive column sums along the row,
+
+    S_d(x, y) = S_d(x - 1, y) + C_d(x + r, y) - C_d(x - r - 1, y),
+
+from a delay line of ``Wh`` column-sum vectors and an accumulator per
+disparity. Columns outside the frame count 0. The window of a row's last r
+pixels overlaps, in the stream, the first r columns of the next row, so a
+second accumulator per disparity gathers the next row's first r column sums
+while the first finishes the row (the frame border costs no idle cycles).
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal, signed
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from ._util import RasterPosition, bits_for, check_geometry, check_int, check_odd_window, delay
+
+__all__ = ["WindowSum"]
+
+
+class WindowSum(wiring.Component):
+    """Sums of ``hamming_window`` consecutive column sums per disparity.
+
+    Parameters
+    ----------
+    width, height : frame size (width in [max(8, Wh + 1), 4096], height in [2, 4096])
+    hamming_window : odd int in [1, 63]
+    max_disparity : int in [1, 256]
+    max_term : int in [1, 4096]
+        Largest column sum.
+
+    Ports
+    -----
+    i_stream : payload ``{first, csum}`` at raster position (x', y)
+    o_stream : payload ``{first, real, cost}``: ``cost[d]`` = S_d(x' - r, y);
+        ``lag`` = r, ``cycles`` = 2.
+    """
+
+    cycles = 2
+
+    def __init__(self, width: int, height: int, hamming_window: int, max_disparity: int,
+                 max_term: int):
+        self.hamming_window = check_odd_window("hamming_window", hamming_window, 1, 63)
+        self.width, self.height = check_geometry(width, height, min_width=hamming_window + 1)
+        self.max_disparity = check_int("max_disparity", max_disparity, 1, 256)
+        self.max_term = check_int("max_term", max_term, 1, 4096)
+        self.term_bits = bits_for(self.max_term)
+        self.sum_bits = bits_for(self.hamming_window * self.max_term)
+        self.radius = self.hamming_window // 2
+        self.lag = self.radius
+        nd = self.max_disparity
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout({
+                "first": 1, "csum": data.ArrayLayout(self.term_bits, nd)}),
+                always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout({
+                "first": 1, "real": 1,
+                "cost": data.ArrayLayout(self.sum_bits, nd)}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        w, h, wh, r, nd = self.width, self.height, self.hamming_window, self.radius, \
+            self.max_disparity
+        beat = self.i_stream.valid
+        p = self.i_stream.payload
+        pos = RasterPosition(w, h, 0, "col").elaborate(m, beat, p.first)
+        out_pos = RasterPosition(w, h, self.lag, "out").elaborate(m, beat, p.first)
+        # Cycle 0 (the input beat): the position flags, the column sum and the one
+        # leaving the window, registered; the delay line advances.
+        # finishing the previous row, starting this one
+        tail = delay(m, pos.registered(lambda x, y: x < r, "tail"), 1, "tail")
+        # first output pixel (x = 0) of this row
+        start = delay(m, pos.registered(lambda x, y: x == r, "start"), 1, "start")
+        head0 = delay(m, pos.registered(lambda x, y: x == 0, "head0"), 1, "head0")
+        # the column leaving the window is in this row
+        leave_ok = pos.registered(lambda x, y: x >= wh, "leave")
+        valid_1 = delay(m, beat, 1, "valid_1")
+
+        for d in range(nd):
+            c = p.csum[d]
+            line = [Signal(self.term_bits, name=f"dl_{d}_{k}") for k in range(wh)]
+            with m.If(beat):
+                m.d.sync += line[0].eq(c)
+                for k in range(1, wh):
+                    m.d.sync += line[k].eq(line[k - 1])
+            leaving = line[wh - 1]
+            c_1 = delay(m, c, 1, f"c_{d}")
+            leave_1 = delay(m, leaving, 1, f"leave_{d}")
+            diff_1 = Signal(signed(self.term_bits + 1), name=f"diff_{d}")
+            m.d.sync += diff_1.eq(c - Mux(leave_ok, leaving, 0))
+            # Cycle 1: the accumulators (one adder each), on the delayed beat.
+            acc = Signal(self.sum_bits, name=f"acc_{d}")
+            head = Signal(self.sum_bits, name=f"head_{d}")
+            with m.If(valid_1):
+                if r:
+                    with m.If(tail):
+                        m.d.sync += head.eq(Mux(head0, 0, head) + c_1)
+                        m.d.sync += acc.eq(acc - leave_1)
+                    with m.Elif(start):
+                        m.d.sync += acc.eq(head + c_1)
+                    with m.Else():
+                        m.d.sync += acc.eq(acc + diff_1)
+                else:
+                    m.d.sync += acc.eq(c_1)
+            m.d.comb += self.o_stream.payload.cost[d].eq(acc)
+        m.d.comb += [
+            self.o_stream.valid.eq(delay(m, beat, 2, "valid")),
+            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 2, "first")),
+            self.o_stream.payload.real.eq(delay(m, out_pos.real, 2, "real")),
+        ]
+        return m
