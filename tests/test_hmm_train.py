@@ -107,13 +107,16 @@ def test_forward_log_likelihood_equals_hmmlearn_score(seed):
         assert np.isfinite(ours)
         assert abs(ours - oracle_score(model, seq)) <= 1e-9
 
+def forbidding(model, symbol):
+    """``model`` with ``symbol`` made impossible in every state (B renormalised)."""
+    b = model.B.copy()
+    b[:, symbol] = 0.0
+    b /= b.sum(axis=1, keepdims=True)
+    return DiscreteHMM(model.pi, model.A, b)
+
 
 def test_forward_impossible_sequence_is_minus_infinity_in_both():
-    model = initial_model(3)
-    b = model.B.copy()
-    b[:, 5] = 0.0
-    b /= b.sum(axis=1, keepdims=True)
-    model = DiscreteHMM(model.pi, model.A, b)
+    model = forbidding(initial_model(3), 5)
     seq = np.array([0, 1, 5, 2])
     assert model.log_likelihood(seq) == -np.inf == oracle_score(model, seq)
 
@@ -222,11 +225,7 @@ def test_recovers_a_known_left_right_model():
 
 
 def test_empty_and_impossible_sequences_are_skipped_and_counted():
-    base = initial_model(3)
-    b = base.B.copy()
-    b[:, 7] = 0.0
-    b /= b.sum(axis=1, keepdims=True)
-    model = DiscreteHMM(base.pi, base.A, b)
+    model = forbidding(initial_model(3), 7)
     rng = np.random.default_rng(2)
     good = [rng.integers(0, 7, size=30) for _ in range(8)]
     bad = [np.array([1, 2, 7, 3]), np.array([7])]
