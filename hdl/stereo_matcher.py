@@ -57,19 +57,27 @@ class StereoMatcher(wiring.Component):
     no_match_cost : int in [0, Wc*Wc // 2] or None (= a third of the census bits)
     disparity_median : bool
         3x3 median of the checked map (the golden model's default).
-    lrcc_threshold : int in [1, D]
-        Reset value of the ``threshold`` input's default driver (see ports).
+    external_flush : bool
+        False (default): a self-contained matcher that counts the pixels of a
+        frame and inserts its own flush (ports below). True: a plain stage of
+        the :mod:`hdl._util` convention for a larger pipeline whose frame source
+        supplies the flush beats: ``i_stream`` always ready with ``first`` in
+        the payload, ``o_stream`` one beat per input beat with ``first`` and
+        ``real``, ``lag = flush`` raster positions, ``cycles`` clock cycles.
 
     Ports
     -----
-    i_stream : payload ``{left, right}``, with ``ready`` (low during the flush)
-    o_stream : payload ``{disparity}``, no back-pressure (always ready)
+    i_stream : payload ``{left, right}``, with ``ready`` (low during the flush);
+        ``{first, left, right}``, always ready, with ``external_flush``
+    o_stream : payload ``{disparity}`` (``{first, real, disparity}`` with
+        ``external_flush``), no back-pressure (always ready)
     threshold : In, Th of eq. 21, sampled continuously (change it between frames)
     """
 
     def __init__(self, width: int, height: int, census_window: int = 7,
                  hamming_window: int = 29, max_disparity: int = 48, pixel_bits: int = 8,
-                 no_match_cost: int | None = None, disparity_median: bool = True):
+                 no_match_cost: int | None = None, disparity_median: bool = True,
+                 external_flush: bool = False):
         wc = check_odd_window("census_window", census_window, *CENSUS_WINDOW_RANGE)
         wh = check_odd_window("hamming_window", hamming_window, *HAMMING_WINDOW_RANGE)
         nd = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
@@ -83,6 +91,7 @@ class StereoMatcher(wiring.Component):
         self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, self.census_bits)
         self.census_window, self.hamming_window, self.max_disparity = wc, wh, nd
         self.disparity_median = bool(disparity_median)
+        self.external_flush = bool(external_flush)
         w, h = self.width, self.height
 
         self._census = [SparseCensus(w, h, wc, pixel_bits, separation=wh) for _ in range(2)]
@@ -95,6 +104,7 @@ class StereoMatcher(wiring.Component):
             stages.append(self._median)
         #: flush beats per frame: the total look-ahead of the windows
         self.flush = sum(s.lag for s in stages)
+        self.lag = self.flush
         #: free-running pipeline depth in clock cycles (+1: the input register)
         self.cycles = 1 + sum(s.cycles for s in stages)
         #: clock cycles from a pixel in to its disparity out, input without gaps
@@ -107,16 +117,36 @@ class StereoMatcher(wiring.Component):
             "column sums": self._shd.memory_bits,
             "median row buffers": self._median.memory_bits if self._median else 0,
         }
+        marks_in = {"first": 1} if self.external_flush else {}
+        marks_out = {"first": 1, "real": 1} if self.external_flush else {}
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout(
-                {"left": pixel_bits, "right": pixel_bits}))),
+                {**marks_in, "left": pixel_bits, "right": pixel_bits}),
+                always_ready=self.external_flush)),
             "o_stream": Out(stream.Signature(data.StructLayout(
-                {"disparity": self.disparity_bits}), always_ready=True)),
+                {**marks_out, "disparity": self.disparity_bits}), always_ready=True)),
             "threshold": In(bits_for(nd)),
         })
 
     def elaborate(self, platform):
         m = Module()
+        w, h = self.width, self.height
+        beat = Signal()
+        first = Signal()
+        left = Signal(self.pixel_bits)
+        right = Signal(self.pixel_bits)
+        if self.external_flush:
+            m.d.sync += [beat.eq(self.i_stream.valid),
+                         first.eq(self.i_stream.valid & self.i_stream.payload.first),
+                         left.eq(self.i_stream.payload.left),
+                         right.eq(self.i_stream.payload.right)]
+        else:
+            self._count_and_flush(m, beat, first, left, right)
+        self._stages(m, beat, first, left, right)
+        return m
+
+    def _count_and_flush(self, m, beat, first, left, right):
+        """Self-contained mode: count the frame's pixels, then run ``flush`` beats."""
         w, h = self.width, self.height
         # Input side: pixel counter, flush counter; the flags the handshake needs are
         # registers (no counter comparison between them and the beat).
@@ -137,13 +167,11 @@ class StereoMatcher(wiring.Component):
         with m.If(flushing):
             m.d.sync += [flush_left.eq(flush_left - 1), flushing.eq(flush_left != 1)]
         # One register stage in front of the census windows.
-        beat = Signal()
-        first = Signal()
-        left = Signal(self.pixel_bits)
-        right = Signal(self.pixel_bits)
         m.d.sync += [beat.eq(take | flushing), first.eq(take & at_start),
                      left.eq(Mux(take, self.i_stream.payload.left, 0)),
                      right.eq(Mux(take, self.i_stream.payload.right, 0))]
+
+    def _stages(self, m, beat, first, left, right):
 
         cl, cr = self._census
         m.submodules.census_left = cl
@@ -183,8 +211,15 @@ class StereoMatcher(wiring.Component):
                 med.i_stream.payload.pixel.eq(chk.o_stream.payload.disparity),
             ]
             last, value = med.o_stream, med.o_stream.payload.pixel
-        m.d.comb += [
-            self.o_stream.valid.eq(last.valid & last.payload.real),
-            self.o_stream.payload.disparity.eq(value),
-        ]
-        return m
+        if self.external_flush:
+            m.d.comb += [
+                self.o_stream.valid.eq(last.valid),
+                self.o_stream.payload.first.eq(last.payload.first),
+                self.o_stream.payload.real.eq(last.payload.real),
+                self.o_stream.payload.disparity.eq(value),
+            ]
+        else:
+            m.d.comb += [
+                self.o_stream.valid.eq(last.valid & last.payload.real),
+                self.o_stream.payload.disparity.eq(value),
+            ]

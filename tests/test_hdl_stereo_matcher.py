@@ -134,3 +134,27 @@ def test_matcher_full_sweep_one_frame(census_window, hamming_window, max_dispari
     ref = stereo_match(*pair, census_window=census_window, hamming_window=hamming_window,
                        max_disparity=max_disparity, lrcc_threshold=4).disparity
     assert (got[0] == ref).all()
+
+
+def test_external_flush_mode_is_a_plain_pipeline_stage():
+    """With ``external_flush`` the frame source supplies the flush beats (here
+    with random payloads, as an upstream window stage would leave them) and the
+    output carries ``first`` / ``real`` on every beat."""
+    from hdl.sim_support import frame_beats, split_frames
+    w, h = 24, 16
+    pairs = [_pair(("tsukuba", 140, 120), h, w, 0), _pair("random", h, w, 4)]
+    dut = StereoMatcher(w, h, 5, 5, 8, external_flush=True)
+    assert dut.lag == dut.flush
+    layout = dut.i_stream.payload.shape()
+    rng = np.random.default_rng(2)
+    junk = [[{"left": a, "right": b} for a, b in rng.integers(0, 256, (dut.flush, 2))]
+            for _ in pairs]
+    frames = [[{"left": a, "right": b} for a, b in zip(l.ravel(), r.ravel())] for l, r in pairs]
+    out = run_stream(dut, frame_beats(layout, frames, dut.flush, junk), idle=0.3, seed=3,
+                     setup=lambda ctx: ctx.set(dut.threshold, 2))
+    olayout = dut.o_stream.payload.shape()
+    disp = field(olayout, out, "disparity")
+    for (left, right), sel in zip(pairs, split_frames(olayout, out, w, h, len(pairs))):
+        ref = stereo_match(left, right, census_window=5, hamming_window=5, max_disparity=8,
+                           lrcc_threshold=2).disparity
+        assert (disp[sel].reshape(h, w) == ref).all()
