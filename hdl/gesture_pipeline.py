@@ -1,0 +1,303 @@
+# amaranth: UnusedElaboratable=no
+"""The whole FPGA side of the recogniser (thesis chapters 5-7): two camera byte
+streams in, one (x, y, gesture flag) record per frame out, bit for bit the golden
+model :func:`sim.model.pipeline.process_frame` / :func:`~sim.model.pipeline.track`.
+
+Stages, in dataflow order (each a component of :mod:`hdl`)::
+
+    cam_left / cam_right domains (camera PCLK)
+        CameraCapture        x2   §5.2   VSYNC/HREF, Y/C byte pairs
+    sync domain (pipeline clock)
+        StereoSynchronizer        §5.3   AsyncFIFOs, frame pairing, flush beats
+        YCbCr422To444        x2   §5.4   Y, Cb, Cr per pixel
+        Median3x3            x2   §6.1   Y of each camera
+        StereoMatcher             §6.2   census, SHD, L2R/R2L, LRCC, disparity median
+        HandSegmentation          §6.3   skin (left Cb/Cr, delayed) AND disparity band
+        Opening                   §6.4   erosion then dilation, W x W element
+        Centroid                  §7.1   moments and dividers, once per frame
+        MovingAverage             §7.2   N frames, 10.8 fixed point
+        GestureSpotting           §7.3   K frames, Tm pixels, hold
+
+The synchroniser delivers every frame as exactly ``width * height`` pixel beats
+followed by ``flush`` beats, the sum of the look-ahead (``lag``) of the window
+stages behind it, so every stage is a plain stream stage of the
+:mod:`hdl._util` convention and the last pixel of a frame reaches the centroid
+before the next frame starts. The camera's vertical blanking must therefore
+last at least ``flush`` pipeline clock cycles (or the synchroniser's FIFOs hold
+what arrives meanwhile).
+
+A frame the synchroniser had to abort (cut short, HREF glitch, VSYNC in a line,
+camera restart) still produces its record, marked ``fault``; it enters the
+moving average and the spotting as a frame without a hand, so the trajectory
+continues as the golden model's with that frame's area set to 0.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import ClockDomain, DomainRenamer, Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.pipeline import PipelineParams
+
+from ._util import OVERRUN_ROWS, bits_for, check_geometry, check_int
+from .camera_capture import CameraCapture
+from .centroid import Centroid
+from .gesture_spotting import GestureSpotting
+from .median3x3 import Median3x3
+from .moving_average import MovingAverage
+from .opening import Opening
+from .segmentation import HandSegmentation
+from .stereo_matcher import StereoMatcher
+from .stereo_sync import StereoSynchronizer
+from .ycbcr422 import YCbCr422To444
+
+__all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop"]
+
+#: Stage-select video output (thesis Table 22, switches SW[9:7]).
+VIDEO_STAGES = ("right", "left", "disparity", "skin", "band", "opening")
+
+
+def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
+    """Per-frame output record: smoothed position (``frac_bits`` fixed point),
+    gesture flag, raw centroid, area, and whether the frame was aborted."""
+    coord = bits_for(max(width, height) - 1)
+    return data.StructLayout({
+        "x": coord + frac_bits, "y": coord + frac_bits, "flag": 1,
+        "centroid_x": coord, "centroid_y": coord, "area": bits_for(width * height),
+        "fault": 1,
+    })
+
+
+class GesturePipeline(wiring.Component):
+    """Camera pins to per-frame gesture records (thesis chapters 5-7).
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels (thesis 640 x 480); width even.
+    params : sim.model.pipeline.PipelineParams
+        Every algorithm parameter, the golden model's own object (thesis
+        run-time values by default); validated for this frame size.
+    fifo_depth : power of two in [16, 65536]
+        Words of each synchroniser FIFO (absorbs the cameras' phase difference).
+    sync_threshold : int
+        Words both FIFOs must hold before a frame starts (thesis N, Table 10).
+
+    Ports
+    -----
+    left, right : camera pins ``{vsync, href, data}`` in the ``cam_left`` /
+        ``cam_right`` clock domains (the cameras' PCLK; GPIO_1 / GPIO_0).
+    start, pause : In, capture control (asynchronous; see CameraCapture).
+    o_stream : one record per frame (:func:`record_layout`), always ready.
+    video_select : In(3), index into :data:`VIDEO_STAGES`.
+    o_video : ``{first, pixel}``, the selected stage's pixels (8-bit; masks
+        as 0/255, disparity shifted to 8 bits), only real pixels.
+    frames, faults : Out(16), frames delivered and aborted by the synchroniser.
+    threshold : In, LRCC threshold Th (reset value ``params.lrcc_threshold``).
+    """
+
+    def __init__(self, width: int = 640, height: int = 480,
+                 params: PipelineParams = PipelineParams(), *, fifo_depth: int = 2048,
+                 sync_threshold: int = 64):
+        width, height = check_geometry(width, height)
+        if width % 2:
+            raise ValueError(f"width must be even (4:2:2 pixel pairs), got {width}")
+        if not isinstance(params, PipelineParams):
+            raise ValueError(f"params must be a PipelineParams, got {type(params).__name__}")
+        params.validate(width, height)
+        self.width, self.height, self.params = width, height, params
+        p = params
+        self._capture = [CameraCapture(width, height) for _ in range(2)]
+        self._to444 = [YCbCr422To444(width, height) for _ in range(2)]
+        self._median = [Median3x3(width, height, 8) for _ in range(2)]
+        self._matcher = StereoMatcher(width, height, p.census_window, p.hamming_window,
+                                      p.max_disparity, 8, p.no_match_cost,
+                                      external_flush=True)
+        med, mat = self._median[0], self._matcher
+        self._segment = HandSegmentation(
+            width, height, p.max_disparity, p.skin_cb, p.skin_cr, p.band_low, p.band_high,
+            skin_delay_beats=med.lag + mat.lag, skin_delay_cycles=med.cycles + mat.cycles)
+        self._opening = Opening(width, height, p.opening_shape, p.opening_size)
+        self._centroid = Centroid(width, height)
+        coord = bits_for(max(width, height) - 1)
+        self._average = MovingAverage(coord, p.average_window, p.frac_bits)
+        self._spotting = GestureSpotting(coord + p.frac_bits, p.spot_window, p.spot_threshold,
+                                         p.spot_hold, p.frac_bits)
+        pixel_stages = [self._to444[0], med, mat, self._segment, self._opening]
+        #: flush beats per frame: the look-ahead of every window stage
+        self.flush = sum(getattr(s, "lag", 0) for s in pixel_stages)
+        if self.flush > OVERRUN_ROWS * width:
+            raise ValueError(f"the windows look {self.flush} beats ahead, more than "
+                             f"{OVERRUN_ROWS} rows of width {width}: use smaller windows")
+        #: clock cycles from a pixel beat to its opened-mask beat (free-running part)
+        self.pixel_cycles = sum(s.cycles for s in pixel_stages)
+        #: clock cycles per frame, cameras never starving the pipeline
+        self.frame_cycles = width * height + self.flush
+        #: clock cycles from a frame's last pixel leaving the synchroniser to its record
+        self.record_cycles = (self.flush + self.pixel_cycles
+                              + self._centroid.cycles_after_frame
+                              + self._average.cycles + self._spotting.cycles + 1)
+        self._sync = StereoSynchronizer(width, height, fifo_depth=fifo_depth,
+                                        threshold=min(sync_threshold, width * height),
+                                        flush=self.flush)
+        self.memory_bits = {
+            "median row buffers": 2 * med.memory_bits,
+            **{f"matcher {k}": v for k, v in mat.memory_bits.items()},
+            "skin delay line": self._segment.memory_bits,
+            "opening row buffers": self._opening.memory_bits,
+        }
+        pins = wiring.Signature({"vsync": In(1), "href": In(1), "data": In(8)})
+        self.disparity_bits = mat.disparity_bits
+        super().__init__({
+            "left": In(pins), "right": In(pins),
+            "start": In(1, init=1), "pause": In(1),
+            "o_stream": Out(stream.Signature(record_layout(width, height, p.frac_bits),
+                                             always_ready=True)),
+            "video_select": In(3),
+            "o_video": Out(stream.Signature(data.StructLayout({"first": 1, "pixel": 8}),
+                                            always_ready=True)),
+            "frames": Out(16), "faults": Out(16),
+            "threshold": In(bits_for(p.max_disparity), init=p.lrcc_threshold),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        # --- capture (camera clock domains) and synchroniser -------------------------
+        sync = self._sync
+        m.submodules.synchronizer = sync
+        for side, cap, domain, into in (("left", self._capture[0], "cam_left", sync.i_left),
+                                        ("right", self._capture[1], "cam_right", sync.i_right)):
+            m.submodules[f"capture_{side}"] = DomainRenamer(domain)(cap)
+            pins = getattr(self, side)
+            m.d.comb += [cap.vsync.eq(pins.vsync), cap.href.eq(pins.href),
+                         cap.data.eq(pins.data), cap.start.eq(self.start),
+                         cap.pause.eq(self.pause)]
+            # (the FIFO write side lives in the camera domain, as the capture does)
+            wiring.connect(m, cap.o_stream, into)
+        m.d.comb += [self.frames.eq(sync.frames), self.faults.eq(sync.faults)]
+        frame = sync.o_stream
+
+        # --- pixel stages (sync domain), one beat per synchroniser beat ----------------
+        to444, median = self._to444, self._median
+        for k, side in enumerate(("left", "right")):
+            m.submodules[f"to444_{side}"] = to444[k]
+            m.submodules[f"median_{side}"] = median[k]
+            word = getattr(frame.payload, side)
+            m.d.comb += [
+                to444[k].i_stream.valid.eq(frame.valid),
+                to444[k].i_stream.payload.first.eq(frame.payload.first),
+                to444[k].i_stream.payload.luma.eq(word.luma),
+                to444[k].i_stream.payload.chroma.eq(word.chroma),
+                median[k].i_stream.valid.eq(to444[k].o_stream.valid),
+                median[k].i_stream.payload.first.eq(to444[k].o_stream.payload.first),
+                median[k].i_stream.payload.pixel.eq(to444[k].o_stream.payload.y),
+            ]
+        m.submodules.matcher = mat = self._matcher
+        m.d.comb += [
+            mat.threshold.eq(self.threshold),
+            mat.i_stream.valid.eq(median[0].o_stream.valid),
+            mat.i_stream.payload.first.eq(median[0].o_stream.payload.first),
+            mat.i_stream.payload.left.eq(median[0].o_stream.payload.pixel),
+            mat.i_stream.payload.right.eq(median[1].o_stream.payload.pixel),
+        ]
+        m.submodules.segmentation = seg = self._segment
+        chroma = to444[0].o_stream
+        m.d.comb += [
+            seg.i_chroma.valid.eq(chroma.valid),
+            seg.i_chroma.payload.first.eq(chroma.payload.first),
+            seg.i_chroma.payload.cb.eq(chroma.payload.cb),
+            seg.i_chroma.payload.cr.eq(chroma.payload.cr),
+        ]
+        wiring.connect(m, mat.o_stream, seg.i_disparity)
+        m.submodules.opening = opening = self._opening
+        m.d.comb += [
+            opening.i_stream.valid.eq(seg.o_stream.valid),
+            opening.i_stream.payload.first.eq(seg.o_stream.payload.first),
+            opening.i_stream.payload.pixel.eq(seg.o_stream.payload.hand),
+        ]
+        m.submodules.centroid = cen = self._centroid
+        wiring.connect(m, opening.o_stream, cen.i_stream)
+
+        # --- per-frame features -------------------------------------------------------
+        # The synchroniser's verdict on a frame holds from its last pixel until the
+        # next frame's last pixel, long after this frame's centroid is out.
+        m.submodules.moving_average = avg = self._average
+        m.submodules.spotting = spot = self._spotting
+        c = cen.o_stream.payload
+        m.d.comb += [
+            avg.i_stream.valid.eq(cen.o_stream.valid),
+            avg.i_stream.payload.x.eq(c.x), avg.i_stream.payload.y.eq(c.y),
+            avg.i_stream.payload.valid.eq((c.area != 0) & ~sync.frame_fault),
+            spot.i_stream.valid.eq(avg.o_stream.valid),
+            spot.i_stream.payload.x.eq(avg.o_stream.payload.x),
+            spot.i_stream.payload.y.eq(avg.o_stream.payload.y),
+            spot.i_stream.payload.primed.eq(avg.o_stream.payload.primed),
+        ]
+        # The raw centroid waits for the averaging and spotting stages.
+        raw = Signal.like(c)
+        fault = Signal()
+        with m.If(cen.o_stream.valid):
+            m.d.sync += [raw.eq(c), fault.eq(sync.frame_fault)]
+        rec = self.o_stream.payload
+        m.d.sync += [
+            self.o_stream.valid.eq(spot.o_stream.valid),
+            rec.x.eq(spot.o_stream.payload.x), rec.y.eq(spot.o_stream.payload.y),
+            rec.flag.eq(spot.o_stream.payload.flag),
+            rec.centroid_x.eq(raw.x), rec.centroid_y.eq(raw.y), rec.area.eq(raw.area),
+            rec.fault.eq(fault),
+        ]
+
+        # --- stage-select video (thesis Table 22) ---------------------------------------
+        shift = 8 - self.disparity_bits
+        sources = {
+            "right": (median[1].o_stream, median[1].o_stream.payload.pixel),
+            "left": (median[0].o_stream, median[0].o_stream.payload.pixel),
+            "disparity": (mat.o_stream, mat.o_stream.payload.disparity << shift),
+            "skin": (seg.o_stream, Mux(seg.o_stream.payload.skin, 255, 0)),
+            "band": (seg.o_stream, Mux(seg.o_stream.payload.band, 255, 0)),
+            "opening": (opening.o_stream, Mux(opening.o_stream.payload.pixel, 255, 0)),
+        }
+        video = self.o_video
+        with m.Switch(self.video_select):
+            for index, name in enumerate(VIDEO_STAGES):
+                src, pixel = sources[name]
+                with m.Case(index):
+                    m.d.sync += [video.valid.eq(src.valid & src.payload.real),
+                                 video.payload.first.eq(src.payload.first),
+                                 video.payload.pixel.eq(pixel)]
+            with m.Default():
+                m.d.sync += video.valid.eq(0)
+        return m
+
+
+class PipelineTop(wiring.Component):
+    """:class:`GesturePipeline` with its three clock domains declared, for the
+    simulators and Verilog export: ports ``clk``/``rst`` (pipeline),
+    ``cam_left_clk``/``cam_left_rst``, ``cam_right_clk``/``cam_right_rst`` and the
+    pipeline's own ports flattened."""
+
+    def __init__(self, pipeline: GesturePipeline):
+        self.pipeline = pipeline
+        super().__init__({
+            "cam_left_clk": In(1), "cam_left_rst": In(1),
+            "cam_right_clk": In(1), "cam_right_rst": In(1),
+            **pipeline.signature.members,
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        for name in ("cam_left", "cam_right"):
+            cd = ClockDomain(name, local=True)
+            m.domains += cd
+            m.d.comb += [cd.clk.eq(getattr(self, f"{name}_clk")),
+                         cd.rst.eq(getattr(self, f"{name}_rst"))]
+        m.submodules.pipeline = p = self.pipeline
+        for name, member in p.signature.members.items():
+            ours, theirs = getattr(self, name), getattr(p, name)
+            if member.is_signature:
+                wiring.connect(m, wiring.flipped(ours), theirs)
+            elif member.flow == In:
+                m.d.comb += theirs.eq(ours)
+            else:
+                m.d.comb += ours.eq(theirs)
+        return m

@@ -1,0 +1,216 @@
+# amaranth: UnusedElaboratable=no
+"""Stereo frame synchroniser (thesis §5.3, Table 10).
+
+The two cameras run on their own pixel clocks and start their frames at different
+times. Each capture writes its words into an ``AsyncFIFO`` (write side in the
+camera's domain, read side in ``sync``); the synchroniser pairs the two streams
+frame by frame:
+
+* **WAIT**: each FIFO independently drops words up to a ``sof`` (one per clock).
+  When both heads are ``sof`` and both FIFOs hold at least ``threshold`` words (the
+  thesis' N), the frame starts. A head ``sof`` whose FIFO is full, or holds more
+  than ``max_skew`` words more than the other FIFO while the other head is not yet
+  a ``sof``, belongs to a frame too old to pair (the other camera lost that frame):
+  it is dropped, and that side drops on up to its next ``sof``.
+* **FRAME**: whenever both FIFOs are non-empty, pop one word from each and emit the
+  pair. The words' markers must match the raster position (x, y): ``sol`` exactly
+  at x == 0, ``sof`` exactly at (0, 0). A mismatch (frame cut short, VSYNC inside a
+  line, camera restarted: a ``sof`` too early; HREF glitch: a ``sol`` too early or
+  missing) aborts the frame.
+* **ABORT**: the rest of the frame goes out as zero pixels, one per clock, popping
+  nothing; the frame counts a fault and WAIT then drops the damaged words.
+* **FLUSH**: ``flush`` beats (payload 0, ``first`` 0), one per clock, after every
+  frame, then WAIT.
+
+So every frame leaves as exactly ``width * height`` pixel beats in raster order
+(``first`` on the first; gaps when a FIFO runs empty) followed immediately by
+``flush`` beats, and ``valid`` is low between frames: the stream convention of
+:mod:`hdl._util` with the flush built in.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import AsyncFIFO
+from amaranth.lib.wiring import In, Out
+
+from ._util import check_geometry, check_int
+from .camera_capture import capture_word_layout
+
+__all__ = ["StereoSynchronizer", "pixel_pair_layout"]
+
+FIFO_DEPTH_RANGE = (16, 65536)
+FLUSH_MAX = 1 << 20
+
+
+def pixel_pair_layout() -> data.StructLayout:
+    """Payload of the synchroniser's output: the left and right words of one pixel."""
+    word = data.StructLayout({"luma": 8, "chroma": 8})
+    return data.StructLayout({"first": 1, "left": word, "right": word})
+
+
+def _check_domain(name: str, value) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{name} must be a non-empty clock domain name, got {value!r}")
+    return value
+
+
+class StereoSynchronizer(wiring.Component):
+    """Pairs the word streams of two captures into one pixel-pair stream (§5.3,
+    Table 10).
+
+    Parameters
+    ----------
+    width : int in [8, 4096], even
+    height : int in [2, 4096]
+    fifo_depth : power of two in [16, 65536]
+        Words of each AsyncFIFO (absorbs the cameras' phase difference).
+    threshold : int in [1, min(fifo_depth, width*height)]
+        N of the thesis: words both FIFOs must hold before a frame starts.
+    max_skew : int in [1, fifo_depth], default ``fifo_depth // 2``
+        Level difference beyond which a waiting ``sof`` is too old to pair.
+        Must exceed the words the leading camera sends before the lagging one's
+        ``sof`` arrives, and should be below ``width*height`` (otherwise only a full
+        FIFO marks a lost frame).
+    flush : int in [0, 2**20]
+        Flush beats after every frame.
+    left_domain, right_domain : str
+        Clock domains of the captures (write sides of the FIFOs).
+
+    Ports
+    -----
+    i_left : In(stream.Signature(capture_word_layout())), domain ``left_domain``;
+        ``ready`` is the FIFO's ``w_rdy`` (low when full).
+    i_right : likewise, domain ``right_domain``.
+    o_stream : Out(stream.Signature(pixel_pair_layout(), always_ready=True)),
+        domain ``sync``; payload ``{first, left: {luma, chroma}, right: {luma,
+        chroma}}``, registered.
+    frame_fault : Out(1), ``sync``
+        Changes together with each frame's last pixel beat (1 if that frame was
+        aborted) and holds until the next frame's last pixel beat.
+    frames : Out(16), frames delivered (aborted ones included), wrapping.
+    faults : Out(16), frames aborted, wrapping.
+    stale : Out(16), ``sof`` words dropped by the stale-frame rule, wrapping.
+
+    Timing
+    ------
+    A pixel beat leaves one ``sync`` cycle after both words are at the FIFO heads
+    (registered output); a written word reaches its FIFO's head after the FIFO's
+    two-flop Gray-pointer synchroniser (two ``sync`` clock edges). The ``sync``
+    clock must pop faster than a camera writes (one word per two PCLK cycles while
+    HREF is high), or the FIFOs fill and the captures overrun.
+    """
+
+    def __init__(self, width: int, height: int, fifo_depth: int = 1024, threshold: int = 64,
+                 max_skew: int | None = None, flush: int = 0,
+                 left_domain: str = "cam_left", right_domain: str = "cam_right"):
+        self.width, self.height = check_geometry(width, height)
+        if self.width % 2:
+            raise ValueError(f"width must be even (4:2:2 pixel pairs) in [8, 4096], "
+                             f"got {self.width}")
+        self.fifo_depth = check_int("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
+        if self.fifo_depth & (self.fifo_depth - 1):
+            raise ValueError(f"fifo_depth must be a power of two in {list(FIFO_DEPTH_RANGE)}, "
+                             f"got {self.fifo_depth}")
+        pixels = self.width * self.height
+        self.threshold = check_int("threshold", threshold, 1, min(self.fifo_depth, pixels))
+        if max_skew is None:
+            max_skew = self.fifo_depth // 2
+        self.max_skew = check_int("max_skew", max_skew, 1, self.fifo_depth)
+        self.flush = check_int("flush", flush, 0, FLUSH_MAX)
+        self.left_domain = _check_domain("left_domain", left_domain)
+        self.right_domain = _check_domain("right_domain", right_domain)
+        word = stream.Signature(capture_word_layout())
+        super().__init__({
+            "i_left": In(word), "i_right": In(word),
+            "o_stream": Out(stream.Signature(pixel_pair_layout(), always_ready=True)),
+            "frame_fault": Out(1),
+            "frames": Out(16), "faults": Out(16), "stale": Out(16),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        w, h, depth = self.width, self.height, self.fifo_depth
+        layout = capture_word_layout()
+
+        heads = []
+        for side, port, domain in (("left", self.i_left, self.left_domain),
+                                   ("right", self.i_right, self.right_domain)):
+            fifo = AsyncFIFO(width=layout.size, depth=depth, r_domain="sync", w_domain=domain)
+            m.submodules[f"fifo_{side}"] = fifo
+            m.d.comb += [fifo.w_data.eq(port.payload), fifo.w_en.eq(port.valid),
+                         port.ready.eq(fifo.w_rdy)]
+            heads.append((fifo, layout(fifo.r_data)))
+        (fl, hl), (fr, hr) = heads
+
+        x = Signal(range(w))
+        y = Signal(range(h))
+        at_x0 = x == 0
+        at_first = at_x0 & (y == 0)
+        at_last = (x == w - 1) & (y == h - 1)
+        flush_left = Signal(range(self.flush + 1))
+
+        out = self.o_stream
+        pay = out.payload
+        m.d.sync += [out.valid.eq(0), pay.eq(0)]
+
+        def advance():
+            m.d.sync += x.eq(x + 1)
+            with m.If(x == w - 1):
+                m.d.sync += [x.eq(0), y.eq(y + 1)]
+
+        def end_of_frame(fault):
+            m.d.sync += [self.frame_fault.eq(fault), self.frames.eq(self.frames + 1),
+                         flush_left.eq(self.flush)]
+            if fault:
+                m.d.sync += self.faults.eq(self.faults + 1)
+            m.next = "FLUSH" if self.flush else "WAIT"
+
+        with m.FSM(init="WAIT"):
+            with m.State("WAIT"):
+                sof_l = fl.r_rdy & hl.sof
+                sof_r = fr.r_rdy & hr.sof
+                # a side's head sof is stale when its FIFO is full or far ahead of the
+                # other, whose head is not yet a sof: that frame has no partner
+                stale_l = sof_l & ~sof_r & ((fl.r_level == depth)
+                                            | (fl.r_level > fr.r_level + self.max_skew))
+                stale_r = sof_r & ~sof_l & ((fr.r_level == depth)
+                                            | (fr.r_level > fl.r_level + self.max_skew))
+                m.d.comb += [fl.r_en.eq((fl.r_rdy & ~hl.sof) | stale_l),
+                             fr.r_en.eq((fr.r_rdy & ~hr.sof) | stale_r)]
+                with m.If(stale_l | stale_r):
+                    m.d.sync += self.stale.eq(self.stale + 1)
+                with m.If(sof_l & sof_r & (fl.r_level >= self.threshold)
+                          & (fr.r_level >= self.threshold)):
+                    m.d.sync += [x.eq(0), y.eq(0)]
+                    m.next = "FRAME"
+
+            with m.State("FRAME"):
+                def markers_ok(head):
+                    return (head.sol == at_x0) & (head.sof == at_first)
+                bad = ((fl.r_rdy & ~markers_ok(hl)) | (fr.r_rdy & ~markers_ok(hr)))
+                with m.If(bad):
+                    m.next = "ABORT"
+                with m.Elif(fl.r_rdy & fr.r_rdy):
+                    m.d.comb += [fl.r_en.eq(1), fr.r_en.eq(1)]
+                    m.d.sync += [
+                        out.valid.eq(1), pay.first.eq(at_first),
+                        pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
+                        pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
+                    ]
+                    advance()
+                    with m.If(at_last):
+                        end_of_frame(0)
+
+            with m.State("ABORT"):
+                # the rest of the frame as zero pixels, so the stages behind count right
+                m.d.sync += [out.valid.eq(1), pay.first.eq(at_first)]
+                advance()
+                with m.If(at_last):
+                    end_of_frame(1)
+
+            with m.State("FLUSH"):
+                m.d.sync += [out.valid.eq(1), flush_left.eq(flush_left - 1)]
+                with m.If(flush_left == 1):
+                    m.next = "WAIT"
+        return m

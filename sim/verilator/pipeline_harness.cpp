@@ -1,0 +1,169 @@
+// Harness for the Verilated GesturePipeline (hdl/gesture_pipeline.py): three
+// clocks (pipeline, left camera PCLK, right camera PCLK) with their own periods
+// and phases, camera pins replayed from files, no Python per cycle.
+//
+// usage: pipeline_harness LEFT RIGHT OUT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
+//                         DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT
+//   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
+//                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
+//                 last sample the camera idles with VSYNC high
+//   OUT           one record per frame: 8 little-endian int64
+//                 (cycle, x, y, flag, centroid_x, centroid_y, area, fault)
+//   *_PS          clock periods and phases (first rising edge) in picoseconds
+//   DRAIN         pipeline cycles run after both cameras' last sample
+//   RESET_AT      pipeline cycle at which every domain is reset (-1: never),
+//                 held for RESET_CYCLES pipeline cycles
+//   VIDEO_SELECT  stage of the o_video output (hdl.gesture_pipeline.VIDEO_STAGES)
+//   VIDEO_OUT     file for the o_video beats, uint16 (first << 8) | pixel, or "-"
+// Prints one JSON line: cycles, records, frames, faults, seconds, cycles_per_second.
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <vector>
+
+#include "Vgesture_pipeline.h"
+#include "verilated.h"
+
+static bool read_file(const char* path, std::vector<uint16_t>& out) {
+    FILE* f = std::fopen(path, "rb");
+    if (!f) return false;
+    std::fseek(f, 0, SEEK_END);
+    long bytes = std::ftell(f);
+    std::fseek(f, 0, SEEK_SET);
+    out.resize(bytes / 2);
+    bool ok = std::fread(out.data(), 2, out.size(), f) == out.size();
+    std::fclose(f);
+    return ok;
+}
+
+struct Clock {
+    long half;   // half period, ps
+    long next;   // time of the next toggle, ps
+    bool level;
+};
+
+int main(int argc, char** argv) {
+    if (argc != 14) {
+        std::fprintf(stderr, "usage: %s LEFT RIGHT OUT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS "
+                             "RIGHT_PHASE DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT\n",
+                     argv[0]);
+        return 2;
+    }
+    std::vector<uint16_t> pins[2];
+    for (int k = 0; k < 2; ++k) {
+        if (!read_file(argv[1 + k], pins[k])) {
+            std::fprintf(stderr, "cannot read %s\n", argv[1 + k]);
+            return 1;
+        }
+    }
+    const long sync_ps = std::atol(argv[4]);
+    Clock clocks[3] = {
+        {sync_ps / 2, sync_ps / 2, true},                       // pipeline, starts high
+        {std::atol(argv[5]) / 2, std::atol(argv[6]), false},    // left PCLK
+        {std::atol(argv[7]) / 2, std::atol(argv[8]), false},    // right PCLK
+    };
+    const long drain = std::atol(argv[9]);
+    const long reset_at = std::atol(argv[10]);
+    const long reset_cycles = std::atol(argv[11]);
+    const int video_select = std::atoi(argv[12]);
+    const bool want_video = std::strcmp(argv[13], "-") != 0;
+
+    VerilatedContext* context = new VerilatedContext;
+    Vgesture_pipeline* top = new Vgesture_pipeline{context};
+    top->video_select = video_select;
+    top->start = 1;
+    top->pause = 0;
+    top->left_vsync = 1;
+    top->right_vsync = 1;
+    top->clk = 1;
+    top->rst = 1;
+    top->cam_left_rst = 1;
+    top->cam_right_rst = 1;
+    top->eval();
+
+    std::vector<int64_t> records;
+    std::vector<uint16_t> video;
+    long index[2] = {-1, -1};  // camera sample on the pins
+    long cycles = 0, done_at = -1;
+    const long initial_reset = 8;
+    auto start = std::chrono::steady_clock::now();
+    while (done_at < 0 || cycles < done_at) {
+        long t = clocks[0].next;
+        for (int k = 1; k < 3; ++k)
+            if (clocks[k].next < t) t = clocks[k].next;
+        // the pipeline's outputs, sampled just before its rising edge
+        if (clocks[0].next == t && !clocks[0].level) {
+            if (top->out_valid) {
+                const int64_t rec[8] = {cycles, top->out_x, top->out_y, top->out_flag,
+                                        top->out_centroid_x, top->out_centroid_y,
+                                        top->out_area, top->out_fault};
+                records.insert(records.end(), rec, rec + 8);
+            }
+            if (want_video && top->video_valid)
+                video.push_back(static_cast<uint16_t>((top->video_first << 8) | top->video_pixel));
+            ++cycles;
+            const bool in_reset = cycles < initial_reset ||
+                                  (reset_at >= 0 && cycles >= reset_at &&
+                                   cycles < reset_at + reset_cycles);
+            top->rst = in_reset;
+            top->cam_left_rst = in_reset;
+            top->cam_right_rst = in_reset;
+        }
+        for (int k = 0; k < 3; ++k) {
+            Clock& c = clocks[k];
+            if (c.next != t) continue;
+            c.level = !c.level;
+            c.next += c.half;
+            if (k > 0 && !c.level) {  // camera falling edge: the next byte on the pins
+                const int cam = k - 1;
+                const long i = ++index[cam];
+                const uint16_t word = i < static_cast<long>(pins[cam].size()) ? pins[cam][i]
+                                                                              : (1u << 9);
+                if (cam == 0) {
+                    top->left_vsync = (word >> 9) & 1;
+                    top->left_href = (word >> 8) & 1;
+                    top->left_data = word & 0xff;
+                } else {
+                    top->right_vsync = (word >> 9) & 1;
+                    top->right_href = (word >> 8) & 1;
+                    top->right_data = word & 0xff;
+                }
+            }
+        }
+        top->clk = clocks[0].level;
+        top->cam_left_clk = clocks[1].level;
+        top->cam_right_clk = clocks[2].level;
+        top->eval();
+        if (done_at < 0 && index[0] >= static_cast<long>(pins[0].size()) &&
+            index[1] >= static_cast<long>(pins[1].size()))
+            done_at = cycles + drain;
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const long frames = top->frames, faults = top->faults;
+    top->final();
+
+    FILE* fout = std::fopen(argv[3], "wb");
+    if (!fout || std::fwrite(records.data(), 8, records.size(), fout) != records.size()) {
+        std::fprintf(stderr, "cannot write %s\n", argv[3]);
+        return 1;
+    }
+    std::fclose(fout);
+    if (want_video) {
+        FILE* fv = std::fopen(argv[13], "wb");
+        if (!fv || std::fwrite(video.data(), 2, video.size(), fv) != video.size()) {
+            std::fprintf(stderr, "cannot write %s\n", argv[13]);
+            return 1;
+        }
+        std::fclose(fv);
+    }
+    std::printf("{\"cycles\": %ld, \"records\": %zu, \"frames\": %ld, \"faults\": %ld, "
+                "\"seconds\": %.6f, \"cycles_per_second\": %.1f}\n",
+                cycles, records.size() / 8, frames, faults, seconds,
+                cycles / (seconds > 0 ? seconds : 1e-9));
+    delete top;
+    delete context;
+    return 0;
+}

@@ -1,0 +1,490 @@
+# amaranth: UnusedElaboratable=no
+"""Camera front end (thesis §5.2-5.3): the OV5642 waveform model (sim/camera.py),
+CameraCapture against its golden model ``capture_words``, and two captures in their
+own PCLK domains feeding the StereoSynchronizer, clean and with every link fault.
+
+Multi-clock runs: ``sync`` 10 ns, ``cam_left`` 20 ns, ``cam_right`` 20 ns with a 7 ns
+phase offset (21 ns in the clean run), cameras started 200-250 PCLK cycles apart.
+"""
+import numpy as np
+import pytest
+from amaranth.hdl import ClockDomain, DomainRenamer, Elaboratable, Module, Signal
+from amaranth.lib import wiring
+from amaranth.sim import Simulator
+
+from hdl.camera_capture import CameraCapture
+from hdl.stereo_sync import StereoSynchronizer
+from sim.camera import (CameraTiming, camera_waveform, capture_words, cut_frame,
+                        href_glitch, pack_pins, stop_frame, vsync_in_line)
+
+W, H = 24, 6
+FLUSH = 10
+TIMING = CameraTiming(vsync_cycles=100, front_porch=20, hblank=16, back_porch=30)
+SYNC_NS, CAM_NS = 10, 20
+VSYNC_BIT = 1 << 9
+
+
+def _frames(count, seed, h=H, w=W):
+    return np.random.default_rng(seed).integers(0, 256, (count, h, 2 * w), dtype=np.uint8)
+
+
+# ------------------------------------------------------------------ stereo harness
+
+
+class _StereoTop(Elaboratable):
+    """Two captures renamed to the camera domains, the synchroniser, and the three
+    clock domains; each camera's pins are driven as one packed word (pack_pins)."""
+
+    def __init__(self, **sync_kw):
+        self.capture = [CameraCapture(W, H), CameraCapture(W, H)]
+        self.sync = StereoSynchronizer(W, H, **sync_kw)
+        self.pins = [Signal(10, name="pins_left"), Signal(10, name="pins_right")]
+        self.start = Signal(init=1)
+        self.pause = Signal()
+        self.domains = [ClockDomain("sync"), ClockDomain("cam_left"), ClockDomain("cam_right")]
+
+    def elaborate(self, platform):
+        m = Module()
+        m.domains += self.domains
+        m.submodules.sync = sync = self.sync
+        for side, cap, pins, into in (("left", self.capture[0], self.pins[0], sync.i_left),
+                                      ("right", self.capture[1], self.pins[1], sync.i_right)):
+            renamed = DomainRenamer(f"cam_{side}")(cap)
+            m.submodules[f"capture_{side}"] = renamed
+            # the ports are reached through the renamed wrapper (it forwards them)
+            m.d.comb += [renamed.data.eq(pins[:8]), renamed.href.eq(pins[8]),
+                         renamed.vsync.eq(pins[9]), renamed.start.eq(self.start),
+                         renamed.pause.eq(self.pause)]
+            wiring.connect(m, renamed.o_stream, into)
+        return m
+
+
+def _run_stereo(wave_l, wave_r, *, right_ns=CAM_NS, right_phase_ns=7, reset_at_ns=None,
+                **sync_kw):
+    """Simulate; returns (beats, counters). ``beats``: (cycle, payload, frame_fault) of
+    every valid output cycle, or ("reset", cycle) when the sync reset was high."""
+    sync_kw.setdefault("flush", FLUSH)
+    top = _StereoTop(**sync_kw)
+    tail = 80
+    n = max(len(wave_l), len(wave_r)) + tail
+    pins = [np.concatenate([p, np.full(n - len(p), VSYNC_BIT, np.uint16)]).tolist()
+            for p in (pack_pins(wave_l), pack_pins(wave_r))]
+    beats, counters = [], {}
+    end_ns = n * max(CAM_NS, right_ns) + right_phase_ns + 50
+
+    def camera(k, domain):
+        async def tb(ctx):
+            signal = top.pins[k]
+            for word in pins[k]:
+                ctx.set(signal, word)
+                await ctx.tick(domain)
+        return tb
+
+    async def collector(ctx):
+        o, fault, rst = top.sync.o_stream, top.sync.frame_fault, top.domains[0].rst
+        payload = o.payload.as_value()
+        cycle = 0
+        while True:
+            if ctx.get(rst):
+                beats.append(("reset", cycle))
+            elif ctx.get(o.valid):
+                beats.append((cycle, ctx.get(payload), ctx.get(fault)))
+            await ctx.tick("sync")
+            cycle += 1
+
+    async def finish(ctx):
+        await ctx.delay(end_ns * 1e-9)
+        s = top.sync
+        counters.update(frames=ctx.get(s.frames), faults=ctx.get(s.faults),
+                        stale=ctx.get(s.stale),
+                        started=[ctx.get(c.frames) for c in top.capture],
+                        overruns=[ctx.get(c.overruns) for c in top.capture])
+
+    async def resetter(ctx):
+        await ctx.delay(reset_at_ns * 1e-9)
+        for cd in top.domains:
+            ctx.set(cd.rst, 1)
+        await ctx.delay(120e-9)
+        for cd in top.domains:
+            ctx.set(cd.rst, 0)
+
+    sim = Simulator(top)
+    sim.add_clock(SYNC_NS * 1e-9, domain="sync")
+    sim.add_clock(CAM_NS * 1e-9, domain="cam_left")
+    sim.add_clock(right_ns * 1e-9, domain="cam_right", phase=right_phase_ns * 1e-9)
+    sim.add_testbench(camera(0, "cam_left"))
+    sim.add_testbench(camera(1, "cam_right"))
+    sim.add_testbench(finish)
+    sim.add_testbench(collector, background=True)
+    if reset_at_ns is not None:
+        sim.add_testbench(resetter)
+    sim.run()
+    return beats, counters
+
+
+def _unpack(payload):
+    """(first, left luma, left chroma, right luma, right chroma) of a pixel-pair word."""
+    return (payload & 1, (payload >> 1) & 0xFF, (payload >> 9) & 0xFF,
+            (payload >> 17) & 0xFF, (payload >> 25) & 0xFF)
+
+
+def _split(beats, flush=FLUSH):
+    """Output frames, checking the contract: ``first`` on the first pixel only, W*H
+    pixels, then exactly ``flush`` zero beats on consecutive cycles, nothing between
+    frames. A frame cut by the sync reset is discarded (the pipeline is reset too).
+    Returns a list of (left bytes (H, 2W), right bytes (H, 2W), frame_fault)."""
+    frames, current = [], None
+    n = W * H
+    for beat in beats:
+        if beat[0] == "reset":
+            current = None
+            continue
+        cycle, payload, fault = beat
+        first, *pix = _unpack(payload)
+        if current is None:
+            assert first, f"cycle {cycle}: beat outside a frame"
+            current = {"pixels": [], "flush": [], "fault": None}
+        if len(current["pixels"]) < n:
+            assert first == (not current["pixels"]), f"cycle {cycle}: misplaced first"
+            current["pixels"].append(pix)
+            if len(current["pixels"]) == n:
+                current["fault"], current["last"] = fault, cycle
+        else:
+            assert payload == 0, f"cycle {cycle}: flush beat with payload {payload:#x}"
+            current["flush"].append(cycle)
+        if len(current["pixels"]) == n and len(current["flush"]) == flush:
+            cycles = current["last"] + 1 + np.arange(flush)
+            assert current["flush"] == cycles.tolist(), "flush beats not one per clock"
+            pix = np.array(current["pixels"], dtype=np.uint8).reshape(H, W, 4)
+            left = pix[:, :, 0:2].reshape(H, 2 * W)
+            right = pix[:, :, 2:4].reshape(H, 2 * W)
+            frames.append((left, right, current["fault"]))
+            current = None
+    assert current is None, "the run ended inside a frame"
+    return frames
+
+
+def _identify(frames, cams_l, cams_r):
+    """Each output frame as the camera frame index it holds: ``k`` (both sides equal
+    to camera frame k bit for bit, frame_fault 0) or ``"k!p"`` (aborted: both sides
+    hold the first p pixels of frame k, then zeros; frame_fault 1)."""
+    seq = []
+    for left, right, fault in frames:
+        whole = [k for k in range(len(cams_l))
+                 if (left == cams_l[k]).all() and (right == cams_r[k]).all()]
+        if whole:
+            assert fault == 0, f"frame {whole[0]} complete but flagged"
+            seq.append(whole[0])
+            continue
+        assert fault == 1, "damaged frame not flagged"
+        flat_l, flat_r = left.reshape(-1, 2), right.reshape(-1, 2)
+        found = None
+        for k in range(len(cams_l)):
+            ok = ((flat_l == cams_l[k].reshape(-1, 2)).all(1)
+                  & (flat_r == cams_r[k].reshape(-1, 2)).all(1))
+            prefix = int(np.argmin(ok))
+            if prefix >= W and not flat_l[prefix:].any() and not flat_r[prefix:].any():
+                found = f"{k}!{prefix}"
+        assert found is not None, "aborted frame is not a prefix of a camera frame"
+        seq.append(found)
+    return seq
+
+
+def test_stereo_clean_frames_bit_exact():
+    cams_l, cams_r = _frames(5, 1), _frames(5, 2)
+    # the right camera starts 250 cycles earlier with a 5 % slower PCLK (21 ns)
+    wave_l = camera_waveform(cams_l, TIMING, start_delay=250)
+    wave_r = camera_waveform(cams_r, TIMING, start_delay=0)
+    beats, counters = _run_stereo(wave_l, wave_r, right_ns=21, right_phase_ns=0,
+                                  fifo_depth=256, threshold=16)
+    frames = _split(beats)
+    assert _identify(frames, cams_l, cams_r) == [0, 1, 2, 3, 4]
+    assert counters["frames"] == 5 and counters["faults"] == 0 and counters["stale"] == 0
+    assert counters["started"] == [5, 5] and counters["overruns"] == [0, 0]
+    assert beats[-1][1:] == (0, 0)  # frame_fault stayed 0
+
+
+def _fault_case(kind):
+    """Left camera leads by 200 cycles; frame 1 of one camera is damaged."""
+    cams_l, cams_r = _frames(4, 3), _frames(4, 4)
+    wave_l = camera_waveform(cams_l, TIMING, start_delay=0)
+    wave_r = camera_waveform(cams_r, TIMING, start_delay=200)
+    reset_at = None
+    if kind == "cut_frame":
+        wave_l = cut_frame(wave_l, 1, 3)
+    elif kind == "href_glitch":       # right camera, last line: caught by the next sof
+        wave_r = href_glitch(wave_r, 1, H - 1, 2 * W - 2)
+    elif kind == "href_glitch_odd":   # chroma byte of a pair, mid line
+        wave_l = href_glitch(wave_l, 1, 2, 21)
+    elif kind == "vsync_in_line":
+        wave_l = vsync_in_line(wave_l, 1, 2, 10)
+    elif kind == "stop_leading":
+        wave_l = stop_frame(wave_l, 1)
+    elif kind == "stop_lagging":
+        wave_r = stop_frame(wave_r, 1)
+    elif kind == "reset":
+        reset_at = wave_l.cycle(1, 4) * CAM_NS
+    return cams_l, cams_r, wave_l, wave_r, reset_at
+
+
+# damaged frame 1 -> what comes out ("1!p": aborted after its first p pixels); the
+# next frame (2) is always bit-exact again
+FAULTS = {
+    "cut_frame": [0, f"1!{3 * W}", 2, 3],                 # lines 0-2 got through
+    "href_glitch": [0, f"1!{H * W - 1}", 2, 3],           # last pixel lost
+    "href_glitch_odd": [0, f"1!{2 * W + 10}", 2, 3],      # pixel 10 of line 2 lost
+    "vsync_in_line": [0, f"1!{2 * W + 5}", 2, 3],         # bytes 10-12 of line 2 lost
+    "stop_leading": [0, 2, 3],
+    "stop_lagging": [0, 2, 3],
+    "reset": [0, 2, 3],
+}
+
+
+@pytest.mark.parametrize("kind", list(FAULTS))
+def test_stereo_fault_resynchronises_next_frame(kind):
+    cams_l, cams_r, wave_l, wave_r, reset_at = _fault_case(kind)
+    beats, counters = _run_stereo(wave_l, wave_r, reset_at_ns=reset_at,
+                                  fifo_depth=256, threshold=16, max_skew=96)
+    frames = _split(beats)
+    expected = FAULTS[kind]
+    assert _identify(frames, cams_l, cams_r) == expected
+    aborted = sum(isinstance(k, str) for k in expected)
+    if kind == "reset":
+        assert any(b[0] == "reset" for b in beats)
+        # counters restart with the reset: frames 2 and 3 after it
+        assert counters["frames"] == 2 and counters["faults"] == 0
+    else:
+        assert counters["frames"] == len(expected)
+        assert counters["faults"] == aborted
+    if kind.startswith("stop"):
+        assert counters["stale"] == 1
+    assert counters["overruns"] == [0, 0]
+
+
+def test_domain_renaming_reaches_every_register():
+    """After DomainRenamer, each capture (its start/pause synchronisers included) is
+    clocked by its camera's PCLK only, and the synchroniser's own logic by ``sync``."""
+    import re
+    from amaranth.back import rtlil
+    top = _StereoTop(fifo_depth=16, threshold=4)
+    ports = [*top.pins, top.start, top.pause, top.sync.o_stream.valid,
+             *[cd.clk for cd in top.domains], *[cd.rst for cd in top.domains]]
+    text = rtlil.convert(top, ports=ports)
+    clocks = {}
+    for module in text.split("\nmodule ")[1:]:
+        name = module.split("\n")[0].strip().lstrip("\\")
+        clocks[name] = set(re.findall(r"connect \\CLK \\?(\S+)", module))
+    for side in ("left", "right"):
+        for sub in ("", ".start_sync", ".pause_sync"):
+            assert clocks[f"top.capture_{side}{sub}"] == {f"cam_{side}_clk"}
+    assert clocks["top.sync"] == {"clk"}
+
+
+# ------------------------------------------------------------------ capture alone
+
+
+def _run_capture(wave, width=W, height=H, *, start=None, pause=None, ready=None):
+    """Drive one CameraCapture cycle by cycle from ``wave``; ``start``/``pause``: per
+    cycle arrays (default 1 / 0), ``ready(count)``: ready for the count-th word.
+    Returns (words as (cycle, sof, sol, luma, chroma, x_after, y_after), dut counters)."""
+    dut = CameraCapture(width, height)
+    pins = (pack_pins(wave).tolist()
+            + [VSYNC_BIT] * 8)
+    n = len(pins)
+    start = np.ones(n, int) if start is None else start
+    pause = np.zeros(n, int) if pause is None else pause
+    words, result = [], {}
+
+    async def tb(ctx):
+        o = dut.o_stream
+        for c in range(n):
+            ctx.set(dut.vsync, pins[c] >> 9)
+            ctx.set(dut.href, (pins[c] >> 8) & 1)
+            ctx.set(dut.data, pins[c] & 0xFF)
+            ctx.set(dut.start, int(start[min(c, len(start) - 1)]))
+            ctx.set(dut.pause, int(pause[min(c, len(pause) - 1)]))
+            if ctx.get(o.valid):
+                ok = 1 if ready is None else int(ready(len(words)))
+                ctx.set(o.ready, ok)
+                p = o.payload
+                words.append((c, ctx.get(p.sof), ctx.get(p.sol), ctx.get(p.luma),
+                              ctx.get(p.chroma), ctx.get(dut.x), ctx.get(dut.y), ok))
+            else:
+                ctx.set(o.ready, 1)
+            await ctx.tick()
+        result.update(frames=ctx.get(dut.frames), overruns=ctx.get(dut.overruns))
+
+    sim = Simulator(dut)
+    sim.add_clock(CAM_NS * 1e-9)
+    sim.add_testbench(tb)
+    sim.run()
+    return words, result
+
+
+def _model_rows(model):
+    return [(int(w["cycle"]) + CameraCapture.latency, int(w["sof"]), int(w["sol"]),
+             int(w["luma"]), int(w["chroma"]), int(w["x"]) + 1, int(w["y"]), 1)
+            for w in model]
+
+
+def test_capture_model_of_a_clean_frame():
+    """The golden model itself, against the frames: raster words, crop of x and y."""
+    cams = _frames(2, 5, h=5, w=28)
+    wave = camera_waveform(cams, CameraTiming(8, 0, 4, 0), start_delay=3)
+    words = capture_words(wave, 24, 4)
+    assert len(words) == 2 * 24 * 4
+    for f in range(2):
+        sel = words[f * 96:(f + 1) * 96]
+        pairs = cams[f, :4, :48].reshape(4, 24, 2)
+        assert (sel["luma"] == pairs[:, :, 0].ravel()).all()
+        assert (sel["chroma"] == pairs[:, :, 1].ravel()).all()
+        xs, ys = np.meshgrid(np.arange(24), np.arange(4))
+        assert (sel["x"] == xs.ravel()).all() and (sel["y"] == ys.ravel()).all()
+        assert (sel["sol"] == (xs.ravel() == 0)).all()
+        assert sel["sof"].tolist() == [1] + [0] * 95
+
+
+def test_capture_model_of_faults():
+    cams = _frames(3, 6, h=4, w=8)
+    wave = camera_waveform(cams, CameraTiming(6, 2, 3, 2))
+    # HREF low on the Cr byte 5 of line 1: pixel 2 lost, bytes 6.. start line 2
+    words = capture_words(href_glitch(wave, 0, 1, 5), 8, 4)
+    words = words[words["cycle"] < wave.frame_end[0]]
+    assert len(words) == 8 + 2 + 5 + 8  # line 3 of the camera is cropped (y = 4)
+    line1 = words[(words["y"] == 1)]
+    assert line1["x"].tolist() == [0, 1]
+    line2 = words[(words["y"] == 2)]
+    assert line2["sol"][0] == 1 and line2["luma"][0] == cams[0, 1, 6]
+    assert line2["chroma"][0] == cams[0, 1, 7] and len(line2) == 5
+    # VSYNC inside line 2 of frame 1: the frame ends there and no frame starts after it
+    words = capture_words(vsync_in_line(wave, 1, 2, 4), 8, 4)
+    assert (words["sof"] == 1).sum() == 3
+    f1 = words[(words["cycle"] > wave.vsync_start[1]) & (words["cycle"] < wave.frame_end[1])]
+    assert len(f1) == 2 * 8 + 2
+    # frame cut at line 2, frame stopped: the others complete
+    words = capture_words(stop_frame(cut_frame(wave, 0, 2), 1), 8, 4)
+    assert len(words) == 2 * 8 + 32 and (words["sof"] == 1).sum() == 2
+
+
+def test_capture_matches_model_with_crop_and_faults():
+    cams = _frames(6, 7, h=5, w=14)
+    wave = camera_waveform(cams, CameraTiming(12, 3, 5, 4), start_delay=5)
+    wave = href_glitch(wave, 0, 1, 7)          # odd byte: a lone luma dropped
+    wave = href_glitch(wave, 0, 3, 12)         # even byte
+    wave = vsync_in_line(wave, 1, 2, 9, 4)
+    wave = cut_frame(wave, 2, 3)
+    wave = stop_frame(wave, 3)
+    wave = href_glitch(wave, 4, 4, 0)
+    words, result = _run_capture(wave, 12, 4)
+    model = capture_words(wave, 12, 4)
+    assert len(model) > 150
+    assert words == _model_rows(model)
+    assert result == {"frames": 5, "overruns": 0}
+
+
+def test_capture_start_and_pause():
+    cams = _frames(5, 8, h=3, w=8)
+    wave = camera_waveform(cams, CameraTiming(10, 2, 4, 3))
+    n = len(wave)
+    mid = [int(wave.line_start[f, 1]) for f in range(5)]
+    start = np.zeros(n, int)
+    start[mid[0]:mid[4]] = 1                   # rises in frame 0, falls in frame 4
+    pause = np.zeros(n, int)
+    pause[mid[1]:mid[2]] = 1                   # raised in frame 1, dropped in frame 2
+    words, result = _run_capture(wave, 8, 3, start=start, pause=pause)
+    ref = _model_rows(capture_words(wave, 8, 3))
+    per_frame = 24
+    # frame 1 completes despite the pause, frame 2 is skipped, frame 3 captured whole
+    expect = ref[per_frame:2 * per_frame] + ref[3 * per_frame:4 * per_frame]
+    assert words[:2 * per_frame] == expect
+    # start falls during line 1 of frame 4: line 0 and at most a pair more get through
+    tail = words[2 * per_frame:]
+    assert tail == ref[4 * per_frame:4 * per_frame + len(tail)]
+    assert 8 <= len(tail) <= 9
+    assert result == {"frames": 3, "overruns": 0}
+
+
+def test_capture_overrun_waits_for_next_frame():
+    cams = _frames(3, 9, h=3, w=8)
+    wave = camera_waveform(cams, CameraTiming(10, 2, 4, 3))
+    ref = _model_rows(capture_words(wave, 8, 3))
+    words, result = _run_capture(wave, 8, 3, ready=lambda k: k != 5)
+    # word 5 of frame 0 is refused: the rest of frame 0 is not emitted at all
+    assert [w[-1] for w in words] == [1] * 5 + [0] + [1] * 48
+    assert [w[:-1] for w in words[:6]] == [r[:-1] for r in ref[:6]]
+    assert [w[:-1] for w in words[6:]] == [r[:-1] for r in ref[24:]]
+    assert words[6][1] == 1  # a clean sof next
+    assert result == {"frames": 3, "overruns": 1}
+
+
+# ------------------------------------------------------------------ waveform model
+
+
+def test_waveform_layout_and_pins():
+    cams = _frames(2, 10, h=2, w=4)
+    t = CameraTiming(vsync_cycles=3, front_porch=2, hblank=1, back_porch=4)
+    wave = camera_waveform(cams, t, start_delay=5)
+    period = 3 + 2 + 2 * 8 + 1 + 4
+    assert t.frame_cycles(4, 2) == period
+    assert len(wave) == 5 + 2 * period + 3
+    assert wave.vsync_start.tolist() == [5, 5 + period]
+    assert wave.line_start[0].tolist() == [10, 19]
+    assert (wave.data[wave.valid] == cams.reshape(-1)).all()
+    expect_vsync = np.r_[[1] * 8, [0] * 23, [1] * 3, [0] * 23, [1] * 3].astype(bool)
+    assert (wave.vsync == expect_vsync).all()
+    pins = pack_pins(wave)
+    assert pins.dtype == np.uint16
+    assert ((pins >> 9) == wave.vsync).all() and (((pins >> 8) & 1) == wave.href).all()
+    assert ((pins & 0xFF) == wave.data).all()
+    # faults keep the length and the schedule of the following frame
+    for damaged in (cut_frame(wave, 0, 1), href_glitch(wave, 0, 0, 3),
+                    vsync_in_line(wave, 0, 1, 2), stop_frame(wave, 0)):
+        assert len(damaged) == len(wave)
+        sl = slice(int(wave.vsync_start[1]), None)
+        assert (damaged.vsync[sl] == wave.vsync[sl]).all()
+        assert (damaged.href[sl] == wave.href[sl]).all()
+        assert damaged.faults and not wave.faults
+    assert cut_frame(wave, 0, 1).vsync[19:wave.frame_end[0]].all()
+    assert vsync_in_line(wave, 0, 1, 2).vsync[21:24].all()
+    assert not href_glitch(wave, 0, 0, 3).href[13]
+
+
+# ------------------------------------------------------------------ parameters
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: CameraCapture(9, 4), "width must be even"),
+    (lambda: CameraCapture(6, 4), "width"),
+    (lambda: CameraCapture(16, 1), "height"),
+    (lambda: StereoSynchronizer(18, 4, fifo_depth=100), "fifo_depth must be a power of two"),
+    (lambda: StereoSynchronizer(16, 4, fifo_depth=8), "fifo_depth"),
+    (lambda: StereoSynchronizer(16, 4, fifo_depth=1 << 17), "fifo_depth"),
+    (lambda: StereoSynchronizer(16, 4, threshold=0), "threshold"),
+    (lambda: StereoSynchronizer(16, 4, threshold=65), r"threshold must be in \[1, 64\]"),
+    (lambda: StereoSynchronizer(64, 64, fifo_depth=16, threshold=17), r"\[1, 16\]"),
+    (lambda: StereoSynchronizer(16, 4, max_skew=0), "max_skew"),
+    (lambda: StereoSynchronizer(16, 4, fifo_depth=32, threshold=8, max_skew=33), "max_skew"),
+    (lambda: StereoSynchronizer(16, 4, flush=-1), "flush"),
+    (lambda: StereoSynchronizer(16, 4, flush=(1 << 20) + 1), "flush"),
+    (lambda: StereoSynchronizer(15, 4), "width must be even"),
+    (lambda: StereoSynchronizer(16, 4, left_domain=""), "left_domain"),
+    (lambda: StereoSynchronizer(16, 4, right_domain=3), "right_domain"),
+    (lambda: CameraTiming(vsync_cycles=0), "vsync_cycles"),
+    (lambda: CameraTiming(front_porch=-1), "front_porch"),
+    (lambda: CameraTiming(hblank=0), "hblank"),
+    (lambda: CameraTiming(back_porch=1.5), "back_porch"),
+    (lambda: camera_waveform(np.zeros((2, 6), np.uint8)), "multiple of 4"),
+    (lambda: camera_waveform(np.zeros((2, 8), np.int16) - 1), "frames"),
+    (lambda: camera_waveform([np.zeros((2, 8), np.uint8), np.zeros((3, 8), np.uint8)]),
+     "same shape|share one shape"),
+    (lambda: camera_waveform(np.zeros((2, 8), np.uint8), start_delay=-1), "start_delay"),
+    (lambda: camera_waveform(np.zeros((2, 8), np.uint8), timing=(1, 2)), "timing"),
+    (lambda: cut_frame(camera_waveform(np.zeros((2, 8), np.uint8)), 1, 0), "frame"),
+    (lambda: href_glitch(camera_waveform(np.zeros((2, 8), np.uint8)), 0, 2, 0), "line"),
+    (lambda: href_glitch(camera_waveform(np.zeros((2, 8), np.uint8)), 0, 0, 8), "byte"),
+    (lambda: vsync_in_line(camera_waveform(np.zeros((2, 8), np.uint8)), 0, 0, 6, 3),
+     "length"),
+])
+def test_bad_parameters_raise_naming_them(make, name):
+    with pytest.raises(ValueError, match=name):
+        make()
