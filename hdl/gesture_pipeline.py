@@ -146,7 +146,8 @@ class GesturePipeline(wiring.Component):
             "skin delay line": self._segment.memory_bits,
             "opening row buffers": self._opening.memory_bits,
         }
-        pins = wiring.Signature({"vsync": In(1), "href": In(1), "data": In(8)})
+        # the camera's side of the link drives the pins
+        pins = wiring.Signature({"vsync": Out(1), "href": Out(1), "data": Out(8)})
         self.disparity_bits = mat.disparity_bits
         super().__init__({
             "left": In(pins), "right": In(pins),

@@ -24,7 +24,7 @@ from sim.model.pipeline import PipelineParams
 from .verilator_sim import BUILD, ROOT, _source_digest, verilator_env
 
 __all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
-           "RECORD_FIELDS"]
+           "run_clip_hardware", "RECORD_FIELDS"]
 
 HARNESS = ROOT / "sim" / "verilator" / "pipeline_harness.cpp"
 TOP = "gesture_pipeline"
@@ -110,7 +110,8 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
     try:
         core = TOP + "_core"
-        text = verilog.convert(top, name=core, emit_src=False)
+        from .synthesis import component_ports
+        text = verilog.convert(top, name=core, ports=component_ports(top), emit_src=False)
         (tmp / f"{TOP}.v").write_text(text + _wrapper(top, core))
         (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
         jobs = jobs or os.cpu_count() or 1
@@ -175,3 +176,34 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
     stats["exe"] = str(exe)
     stats["clocks"] = asdict(clocks)
     return PipelineRun(records, video, stats)
+
+
+def run_clip_hardware(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
+                      clocks: Clocks = Clocks(), fifo_depth: int = 2048):
+    """A clip's 4:2:2 frames through the Verilated pipeline, as the golden model's
+    :class:`sim.model.pipeline.Trajectory` (``symbol`` from the records' smoothed
+    points and flags, as :func:`~sim.model.pipeline.step_symbols` does), plus the
+    harness statistics. Raises RuntimeError if a frame's record is missing."""
+    from sim.camera import camera_waveform
+    from sim.model.pipeline import Trajectory, step_symbols
+
+    from .gesture_pipeline import GesturePipeline
+    frames = len(left_frames)
+    height, width = np.shape(left_frames[0])[0], np.shape(left_frames[0])[1] // 2
+    params.validate(width, height)
+    flush = GesturePipeline(width, height, params, fifo_depth=fifo_depth).flush
+    timing = clip_timing(width, height, flush, clocks)
+    # the right camera starts a few hundred cycles after the left one
+    left_wave = camera_waveform(list(left_frames), timing, start_delay=64)
+    right_wave = camera_waveform(list(right_frames), timing, start_delay=64 + 300)
+    run = run_pipeline(left_wave, right_wave, width, height, params, clocks=clocks,
+                       fifo_depth=fifo_depth)
+    rec = run.records
+    if len(rec) != frames:
+        raise RuntimeError(f"the pipeline produced {len(rec)} frame records for {frames} frames "
+                           f"({run.stats})")
+    smoothed = np.stack([rec["x"], rec["y"]], axis=1)
+    flag = rec["flag"].astype(bool)
+    trajectory = Trajectory(np.stack([rec["centroid_x"], rec["centroid_y"]], axis=1),
+                            rec["area"].copy(), smoothed, flag, step_symbols(smoothed, flag))
+    return trajectory, run.stats

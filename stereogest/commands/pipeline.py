@@ -25,6 +25,11 @@ def add_arguments(p):
                         "(default: a rest frame, the middle of the motion and its end)")
     p.add_argument("--threads", type=int, default=None,
                    help="worker threads for the stereo cost stage (default: CPUs, at most 4)")
+    p.add_argument("--backend", choices=("model", "verilator"), default="model",
+                   help="model: the numpy golden model (default); verilator: the Amaranth "
+                        "GesturePipeline's Verilog under Verilator, fed the clip as camera "
+                        "pin waveforms (same trajectory.csv; stage pictures from the model "
+                        "backend only)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
 
 
@@ -99,8 +104,19 @@ def run(args) -> int:
     chosen = set(parse_frames(args.frames, frames, tuple(clip.motion_frames)))
     params = PipelineParams()
     start = time.perf_counter()
-    trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
-                                progress=progress_printer(args.quiet), threads=args.threads)
+    if getattr(args, "backend", "model") == "verilator":
+        from hdl.verilator_pipeline import run_clip_hardware
+        params.validate(clip.left.shape[2] // 2, clip.left.shape[1])
+        if not args.quiet:
+            print("  building / running the Verilated pipeline ...", file=sys.stderr, flush=True)
+        trajectory, stats = run_clip_hardware(clip.left, clip.right, params)
+        kept = {}
+        if not args.quiet:
+            print(f"  {stats['cycles']} pipeline cycles, {stats['cycles_per_second']:.0f} "
+                  f"cycles/s", file=sys.stderr, flush=True)
+    else:
+        trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
+                                    progress=progress_printer(args.quiet), threads=args.threads)
     seconds = time.perf_counter() - start
     summary = write_outputs(Path(args.output), clip, trajectory, kept, params, seconds)
     print(f"{summary['frames']} frames in {seconds:.1f} s, {summary['gesture_frames']} flagged "

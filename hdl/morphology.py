@@ -1,0 +1,129 @@
+# amaranth: UnusedElaboratable=no
+"""Binary erosion and dilation (thesis §6.4, Figs. 63-69).
+
+A :class:`~hdl.window.WindowGenerator` of one-bit pixels gives the k x k
+neighbourhood of each pixel; the element's taps go through a pipelined AND tree
+(Figs. 64 and 69). The D/E select of Fig. 69 is the ``dilate`` input: by De
+Morgan, a dilation is the inverted AND of inverted taps, so both operations share
+the tree; each leaf is ``(pixel XOR dilate) OR outside`` (a tap outside the
+frame counts 1 for the erosion and 0 for the dilation, as the golden model and
+OpenCV), and the root is XORed with ``dilate`` again. Fan-in
+:data:`FANIN` = 6 per level (one 6-input LUT), one register per level.
+"""
+from __future__ import annotations
+
+import numpy as np
+from amaranth.hdl import Cat, Module, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from sim.model.morphology import SHAPES, _resolve_element, structuring_element
+
+from ._util import check_geometry, check_odd_window, delay
+from .window import WindowGenerator
+
+__all__ = ["BinaryMorphology", "resolve_element", "FANIN"]
+
+FANIN = 6
+SIZE_RANGE = (3, 63)
+
+
+def resolve_element(element, size: int) -> np.ndarray:
+    """The element as a (k, k) bool array: a name of
+    :data:`sim.model.morphology.SHAPES` built at ``size``, or an explicit odd
+    square array (``size`` is then not used). Raises ``ValueError`` naming
+    ``element`` or ``size``."""
+    if isinstance(element, str):
+        if element not in SHAPES:
+            raise ValueError(f"element must be one of {SHAPES} or an odd square bool array, "
+                             f"got {element!r}")
+        size = check_odd_window("size", size, *SIZE_RANGE)
+        return structuring_element(element, size)
+    return _resolve_element(element, None)
+
+
+class BinaryMorphology(wiring.Component):
+    """Erosion or dilation of a binary pixel stream by a structuring element.
+
+    Parameters
+    ----------
+    width : int in [max(8, k + 2), 4096]
+    height : int in [2, 4096]
+    element : {"cross", "square", "diamond"} or (k, k) bool array, k odd in [1, 63]
+        A name (:func:`sim.model.morphology.structuring_element` at ``size``;
+        the thesis uses an 11 x 11 cross, Fig. 100) or an explicit element with
+        at least one tap, anchored at its centre and not reflected.
+    size : odd int in [3, 63]
+        Side k of a named element (not used for an array).
+
+    Ports
+    -----
+    dilate : In(1), the D/E select of Fig. 69: 0 erosion (AND of the taps),
+        1 dilation (OR). Sampled with each pixel as it leaves the window
+        generator; change it between frames.
+    i_stream : payload ``{first, pixel: 1}``
+    o_stream : payload ``{first, real, pixel: 1}``, ``lag`` = r * width + r
+        raster positions behind the input (r = k // 2), ``cycles`` = window
+        generator 2 + leaves 1 + ``tree_levels`` + output 1.
+
+    Attributes
+    ----------
+    element : (k, k) bool array
+    size : int, k
+    taps : int, taps of the element
+    tree_levels : int, levels of the AND tree (ceil(log6(taps)))
+    lag, cycles, memory_bits : int
+    """
+
+    def __init__(self, width: int, height: int, element="cross", size: int = 11):
+        self.element = resolve_element(element, size)
+        self.size = self.element.shape[0]
+        self.width, self.height = check_geometry(width, height, min_width=self.size + 2)
+        self.taps = int(self.element.sum())
+        levels, n = 0, self.taps
+        while n > 1:
+            n = -(-n // FANIN)
+            levels += 1
+        self.tree_levels = levels
+        self._window = WindowGenerator(self.width, self.height, 1, self.size)
+        self.lag = self._window.lag
+        self.cycles = self._window.cycles + 1 + levels + 1
+        self.memory_bits = self._window.memory_bits
+        super().__init__({
+            "dilate": In(1),
+            "i_stream": In(stream.Signature(data.StructLayout(
+                {"first": 1, "pixel": 1}), always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout(
+                {"first": 1, "real": 1, "pixel": 1}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.window = win = self._window
+        wiring.connect(m, wiring.flipped(self.i_stream), win.i_stream)
+        wp = win.o_stream.payload
+
+        # Leaves: one register per tap, 1 where the tap does not veto the AND.
+        values = []
+        for i, j in np.argwhere(self.element):
+            i, j = int(i), int(j)
+            leaf = Signal(name=f"leaf_{i}_{j}")
+            outside = ~(wp.rows1[i] & wp.cols[j])
+            m.d.sync += leaf.eq((wp.v1[i][j] ^ self.dilate) | outside)
+            values.append(leaf)
+        for level in range(self.tree_levels):
+            nxt = []
+            for g in range(0, len(values), FANIN):
+                node = Signal(name=f"and_l{level}_{g // FANIN}")
+                m.d.sync += node.eq(Cat(*values[g:g + FANIN]).all())
+                nxt.append(node)
+            values = nxt
+        stages = 1 + self.tree_levels
+        out = self.o_stream.payload
+        m.d.sync += [
+            out.pixel.eq(values[0] ^ delay(m, self.dilate, stages, "select")),
+            out.first.eq(delay(m, wp.first, stages, "first")),
+            out.real.eq(delay(m, wp.real, stages, "real")),
+            self.o_stream.valid.eq(delay(m, win.o_stream.valid, stages, "valid")),
+        ]
+        return m

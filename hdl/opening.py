@@ -1,0 +1,71 @@
+# amaranth: UnusedElaboratable=no
+"""Morphological opening of the hand mask (thesis §6.4, Fig. 100): an erosion
+then a dilation by the same, unreflected element, two
+:class:`~hdl.morphology.BinaryMorphology` with constant D/E selects, as
+:func:`sim.model.morphology.opening`.
+
+The dilation runs on the erosion's output beats, including those outside the
+frame (before it and during the flush): its own position counter masks them.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Module
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from .morphology import BinaryMorphology
+
+__all__ = ["Opening"]
+
+
+class Opening(wiring.Component):
+    """Opening of a binary pixel stream.
+
+    Parameters
+    ----------
+    width : int in [max(8, k + 2), 4096]
+    height : int in [2, 4096]
+    element, size : as :class:`~hdl.morphology.BinaryMorphology` (default the
+        thesis' 11 x 11 cross)
+
+    Ports
+    -----
+    i_stream : payload ``{first, pixel: 1}``
+    o_stream : payload ``{first, real, pixel: 1}``, ``lag`` = 2 (r * width + r)
+        raster positions behind the input, ``cycles`` = the two stages' sum.
+
+    Attributes
+    ----------
+    lag, cycles, memory_bits : int, sums over the erosion and the dilation
+    element : (k, k) bool array
+    """
+
+    def __init__(self, width: int, height: int, element="cross", size: int = 11):
+        self._erosion = BinaryMorphology(width, height, element, size)
+        self._dilation = BinaryMorphology(width, height, element, size)
+        self.width, self.height = self._erosion.width, self._erosion.height
+        self.element = self._erosion.element
+        self.size = self._erosion.size
+        self.lag = self._erosion.lag + self._dilation.lag
+        self.cycles = self._erosion.cycles + self._dilation.cycles
+        self.memory_bits = self._erosion.memory_bits + self._dilation.memory_bits
+        super().__init__({
+            "i_stream": In(stream.Signature(data.StructLayout(
+                {"first": 1, "pixel": 1}), always_ready=True)),
+            "o_stream": Out(stream.Signature(data.StructLayout(
+                {"first": 1, "real": 1, "pixel": 1}), always_ready=True)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.erosion = ero = self._erosion
+        m.submodules.dilation = dil = self._dilation
+        m.d.comb += [ero.dilate.eq(0), dil.dilate.eq(1)]
+        wiring.connect(m, wiring.flipped(self.i_stream), ero.i_stream)
+        m.d.comb += [
+            dil.i_stream.valid.eq(ero.o_stream.valid),
+            dil.i_stream.payload.first.eq(ero.o_stream.payload.first),
+            dil.i_stream.payload.pixel.eq(ero.o_stream.payload.pixel),
+        ]
+        wiring.connect(m, dil.o_stream, wiring.flipped(self.o_stream))
+        return m
