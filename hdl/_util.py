@@ -146,6 +146,19 @@ class RasterPosition:
             m.d.sync += reg.eq(Mux(self._first, const(cond(nx0, ny0)), nxt))
         return Mux(self._first, const(cond(x0, y0)), reg)
 
+    def thermometer(self, count: int, name: str = "thermo"):
+        """``count`` bits, bit k = (x >= k) for the current position, from a
+        shift register (a 1 enters per beat, the row start resets it): one LUT
+        level instead of a comparator per k, which synthesis tends to chain."""
+        m = self._m
+        reg = Signal(count, name=f"{self.name}_{name}", init=1)
+        start = int(min(self.x0 + 1, count) and (1 << min(self.x0 + 1, count)) - 1)
+        current = Mux(self._first, start, reg)
+        row_end = self.registered(lambda x, y: x == self.width - 1, f"{name}_end")
+        with m.If(self._beat):
+            m.d.sync += reg.eq(Mux(row_end, 1, (current << 1) | 1))
+        return current
+
     @property
     def real(self):
         return (self.y >= 0) & (self.y < self.height)

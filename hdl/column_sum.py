@@ -105,13 +105,7 @@ class ColumnSum(wiring.Component):
         with m.If(beat & pos.registered(lambda x, y: x == 0, "row_start")):
             m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
                                     - Mux(leave_ok, nmc, 0))
-        # (x >= d) for every d as a thermometer code that shifts by one per beat and
-        # restarts at each row: no comparator per disparity.
-        thermometer = Signal(nd, name="partner", init=1)
-        partners = Mux(p.first, 1, thermometer)
-        row_end = pos.registered(lambda x, y: x == w - 1, "row_end")
-        with m.If(beat):
-            m.d.sync += thermometer.eq(Mux(row_end, 1, (partners << 1) | 1))
+        partners = pos.thermometer(nd, "partner")  # bit d: x >= d
         # Cycle 2: the new column sums, written back and output.
         for d in range(nd):
             m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])

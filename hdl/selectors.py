@@ -92,10 +92,11 @@ class DisparitySelectors(wiring.Component):
         # R2L: chain of best-of cells, advancing on beats.
         chain_c = [Signal(cb, name=f"r2l_c{k}") for k in range(nd)]
         chain_d = [Signal(db, name=f"r2l_d{k}") for k in range(nd)]
+        same_rows = pos.thermometer(nd, "same_row")  # bit k: x >= k
         with m.If(beat):
             m.d.sync += [chain_c[0].eq(p.cost[0]), chain_d[0].eq(0)]
             for k in range(1, nd):
-                same_row = pos.registered(lambda x, y, k=k: x >= k, f"row_{k}")
+                same_row = same_rows[k]
                 take = same_row & (p.cost[k] < chain_c[k - 1])
                 m.d.sync += [chain_c[k].eq(Mux(take, p.cost[k], chain_c[k - 1])),
                              chain_d[k].eq(Mux(take, k, chain_d[k - 1]))]

@@ -94,12 +94,19 @@ def _make_top(width, height, params, fifo_depth):
     return PipelineTop(GesturePipeline(width, height, params, fifo_depth=fifo_depth))
 
 
+#: C++ optimisation of the Verilated model (measured: see hdl/README.md)
+CFLAGS = "-O2"
+
+
 def build_pipeline(width: int, height: int, params: PipelineParams = PipelineParams(),
-                   fifo_depth: int = 2048, jobs: int | None = None) -> Path:
-    """Build (or reuse) the Verilated pipeline harness; returns the executable."""
+                   fifo_depth: int = 2048, jobs: int | None = None, threads: int = 1,
+                   cflags: str = CFLAGS) -> Path:
+    """Build (or reuse) the Verilated pipeline harness; returns the executable.
+    ``threads`` > 1 builds a multithreaded model (Verilator ``--threads``)."""
     from amaranth.back import verilog
     top = _make_top(width, height, params, fifo_depth)
-    spec = dict(width=width, height=height, fifo_depth=fifo_depth, **params.as_dict())
+    spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
+                cflags=cflags, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = hashlib.sha256((_source_digest() + HARNESS.read_text()).encode()).hexdigest()[:16]
     folder = BUILD / f"pipeline-{key}-{digest}"
@@ -119,7 +126,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
                "-Wno-fatal", "-Wno-WIDTH", "-Wno-UNOPTFLAT", "-Wno-CMPCONST", "-Wno-UNSIGNED",
                "--x-assign", "fast", "--x-initial", "fast", "-O3",
                "--top-module", TOP, "-o", "pipeline_harness", "--Mdir", "obj_dir",
-               "-CFLAGS", "-O2",
+               "-CFLAGS", cflags, "--threads", str(threads),
                # The wheel's verilated.mk leaves the precompiled-header flag empty.
                "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
                f"{TOP}.v", str(HARNESS)]
@@ -150,13 +157,18 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
                  params: PipelineParams = PipelineParams(), *, clocks: Clocks = Clocks(),
                  fifo_depth: int = 2048, drain: int | None = None, reset_at: int = -1,
                  reset_cycles: int = 16, video_select: int | None = None,
-                 jobs: int | None = None) -> PipelineRun:
+                 jobs: int | None = None, threads: int = 1) -> PipelineRun:
     """Replay two camera waveforms (:class:`sim.camera.CameraWaveform`) through the
-    Verilated pipeline; returns its per-frame records and the harness statistics."""
+    Verilated pipeline; returns its per-frame records and the harness statistics.
+    ``drain``: pipeline cycles run after the cameras' last sample (default: enough
+    for the last frame's flush, record and the FIFOs)."""
     from sim.camera import pack_pins
-    exe = build_pipeline(width, height, params, fifo_depth, jobs)
+
+    from .gesture_pipeline import GesturePipeline
+    exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS)
     if drain is None:
-        drain = 2 * (width * height + 64 * width)
+        drain = (GesturePipeline(width, height, params, fifo_depth=fifo_depth).record_cycles
+                 + 2 * fifo_depth + 4 * width)
     dtype = np.dtype([(name, "<i8") for name in RECORD_FIELDS])
     with tempfile.TemporaryDirectory() as tmp:
         paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin")]
