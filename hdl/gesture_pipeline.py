@@ -26,10 +26,11 @@ before the next frame starts. The camera's vertical blanking must therefore
 last at least ``flush`` pipeline clock cycles (or the synchroniser's FIFOs hold
 what arrives meanwhile).
 
-A frame the synchroniser had to abort (cut short, HREF glitch, VSYNC in a line,
-camera restart) still produces its record, marked ``fault``; it enters the
-moving average and the spotting as a frame without a hand, so the trajectory
-continues as the golden model's with that frame's area set to 0.
+A frame the synchroniser has to abort (cut short, HREF glitch, VSYNC in a line,
+camera restart) ends early, without flush: the next frame's ``first`` restarts
+every stage's raster position, so the aborted frame never reaches the
+centroid's last pixel and produces no record. The moving average and the
+spotting see the clip without that frame (as if the camera had dropped it).
 """
 from __future__ import annotations
 
@@ -59,12 +60,11 @@ VIDEO_STAGES = ("right", "left", "disparity", "skin", "band", "opening")
 
 def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
     """Per-frame output record: smoothed position (``frac_bits`` fixed point),
-    gesture flag, raw centroid, area, and whether the frame was aborted."""
+    gesture flag, raw centroid and area."""
     coord = bits_for(max(width, height) - 1)
     return data.StructLayout({
         "x": coord + frac_bits, "y": coord + frac_bits, "flag": 1,
         "centroid_x": coord, "centroid_y": coord, "area": bits_for(width * height),
-        "fault": 1,
     })
 
 
@@ -92,7 +92,7 @@ class GesturePipeline(wiring.Component):
     video_select : In(3), index into :data:`VIDEO_STAGES`.
     o_video : ``{first, pixel}``, the selected stage's pixels (8-bit; masks
         as 0/255, disparity shifted to 8 bits), only real pixels.
-    frames, faults : Out(16), frames delivered and aborted by the synchroniser.
+    frames, faults : Out(16), frames completed and aborted by the synchroniser.
     threshold : In, LRCC threshold Th (reset value ``params.lrcc_threshold``).
     """
 
@@ -220,15 +220,13 @@ class GesturePipeline(wiring.Component):
         wiring.connect(m, opening.o_stream, cen.i_stream)
 
         # --- per-frame features -------------------------------------------------------
-        # The synchroniser's verdict on a frame holds from its last pixel until the
-        # next frame's last pixel, long after this frame's centroid is out.
         m.submodules.moving_average = avg = self._average
         m.submodules.spotting = spot = self._spotting
         c = cen.o_stream.payload
         m.d.comb += [
             avg.i_stream.valid.eq(cen.o_stream.valid),
             avg.i_stream.payload.x.eq(c.x), avg.i_stream.payload.y.eq(c.y),
-            avg.i_stream.payload.valid.eq((c.area != 0) & ~sync.frame_fault),
+            avg.i_stream.payload.valid.eq(c.area != 0),
             spot.i_stream.valid.eq(avg.o_stream.valid),
             spot.i_stream.payload.x.eq(avg.o_stream.payload.x),
             spot.i_stream.payload.y.eq(avg.o_stream.payload.y),
@@ -236,16 +234,14 @@ class GesturePipeline(wiring.Component):
         ]
         # The raw centroid waits for the averaging and spotting stages.
         raw = Signal.like(c)
-        fault = Signal()
         with m.If(cen.o_stream.valid):
-            m.d.sync += [raw.eq(c), fault.eq(sync.frame_fault)]
+            m.d.sync += raw.eq(c)
         rec = self.o_stream.payload
         m.d.sync += [
             self.o_stream.valid.eq(spot.o_stream.valid),
             rec.x.eq(spot.o_stream.payload.x), rec.y.eq(spot.o_stream.payload.y),
             rec.flag.eq(spot.o_stream.payload.flag),
             rec.centroid_x.eq(raw.x), rec.centroid_y.eq(raw.y), rec.area.eq(raw.area),
-            rec.fault.eq(fault),
         ]
 
         # --- stage-select video (thesis Table 22) ---------------------------------------

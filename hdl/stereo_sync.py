@@ -6,26 +6,43 @@ times. Each capture writes its words into an ``AsyncFIFO`` (write side in the
 camera's domain, read side in ``sync``); the synchroniser pairs the two streams
 frame by frame:
 
-* **WAIT**: each FIFO independently drops words up to a ``sof`` (one per clock).
-  When both heads are ``sof`` and both FIFOs hold at least ``threshold`` words (the
-  thesis' N), the frame starts. A head ``sof`` whose FIFO is full, or holds more
-  than ``max_skew`` words more than the other FIFO while the other head is not yet
-  a ``sof``, belongs to a frame too old to pair (the other camera lost that frame):
-  it is dropped, and that side drops on up to its next ``sof``.
+* **WAIT**: each FIFO independently drops words up to a ``sof`` (one per clock) and
+  keeps a head ``sof``. When both heads are ``sof`` and both FIFOs hold at least
+  ``threshold`` words (the thesis' N), the frame starts. A head ``sof`` whose FIFO
+  is full, or holds more than ``max_skew`` words more than the other FIFO while the
+  other head is not yet a ``sof``, belongs to a frame too old to pair (the other
+  camera lost that frame): it is dropped, and that side drops on up to its next
+  ``sof``.
 * **FRAME**: whenever both FIFOs are non-empty, pop one word from each and emit the
   pair. The words' markers must match the raster position (x, y): ``sol`` exactly
   at x == 0, ``sof`` exactly at (0, 0). A mismatch (frame cut short, VSYNC inside a
   line, camera restarted: a ``sof`` too early; HREF glitch: a ``sol`` too early or
-  missing) aborts the frame.
-* **ABORT**: the rest of the frame goes out as zero pixels, one per clock, popping
-  nothing; the frame counts a fault and WAIT then drops the damaged words.
-* **FLUSH**: ``flush`` beats (payload 0, ``first`` 0), one per clock, after every
-  frame, then WAIT.
+  missing) aborts the frame: it counts a fault and goes straight back to WAIT,
+  popping nothing, so WAIT drops the damaged words and a head ``sof`` (the cut
+  camera's next frame) starts the next frame at once. A full FIFO facing an empty
+  one aborts the frame too: that camera overruns on its next word, so the frame is
+  lost anyway (typically the other camera's frame was cut and its next ``sof`` is
+  yet to come); aborting at once lets WAIT drain the full FIFO before that camera's
+  next frame arrives, instead of the next frame overrunning as well. After the
+  frame's last pixel pair: FLUSH (or WAIT when ``flush`` is 0).
+* **FLUSH**: ``flush`` beats (payload 0, ``first`` 0), one per clock, then WAIT.
 
-So every frame leaves as exactly ``width * height`` pixel beats in raster order
-(``first`` on the first; gaps when a FIFO runs empty) followed immediately by
-``flush`` beats, and ``valid`` is low between frames: the stream convention of
-:mod:`hdl._util` with the flush built in.
+Output contract (the stream convention of :mod:`hdl._util` with the flush built in):
+
+* every *completed* frame leaves as exactly ``width * height`` pixel beats in raster
+  order (``first`` on the first; gaps when a FIFO runs empty), immediately followed
+  by ``flush`` beats;
+* an *aborted* frame leaves as a prefix of its pixel beats (starting with ``first``)
+  and nothing else: no padding, no flush;
+* ``valid`` is low between frames.
+
+Why aborted frames are not padded to full size: every stage behind keeps its raster
+position from the ``first`` marker, so the next ``first`` restarts it, and an
+incomplete frame never reaches the centroid's last pixel, so it produces no record.
+Padding would take up to ``width * height`` clocks, during which the cameras keep
+writing the next frame: the FIFOs would have to hold a frame's worth of camera data
+or that frame would be lost too. Without it the FIFOs only absorb the cameras'
+phase difference, and the frame after a damaged one is paired normally.
 """
 from __future__ import annotations
 
@@ -85,10 +102,7 @@ class StereoSynchronizer(wiring.Component):
     o_stream : Out(stream.Signature(pixel_pair_layout(), always_ready=True)),
         domain ``sync``; payload ``{first, left: {luma, chroma}, right: {luma,
         chroma}}``, registered.
-    frame_fault : Out(1), ``sync``
-        Changes together with each frame's last pixel beat (1 if that frame was
-        aborted) and holds until the next frame's last pixel beat.
-    frames : Out(16), frames delivered (aborted ones included), wrapping.
+    frames : Out(16), frames completed (aborted ones not included), wrapping.
     faults : Out(16), frames aborted, wrapping.
     stale : Out(16), ``sof`` words dropped by the stale-frame rule, wrapping.
 
@@ -124,7 +138,6 @@ class StereoSynchronizer(wiring.Component):
         super().__init__({
             "i_left": In(word), "i_right": In(word),
             "o_stream": Out(stream.Signature(pixel_pair_layout(), always_ready=True)),
-            "frame_fault": Out(1),
             "frames": Out(16), "faults": Out(16), "stale": Out(16),
         })
 
@@ -154,18 +167,6 @@ class StereoSynchronizer(wiring.Component):
         pay = out.payload
         m.d.sync += [out.valid.eq(0), pay.eq(0)]
 
-        def advance():
-            m.d.sync += x.eq(x + 1)
-            with m.If(x == w - 1):
-                m.d.sync += [x.eq(0), y.eq(y + 1)]
-
-        def end_of_frame(fault):
-            m.d.sync += [self.frame_fault.eq(fault), self.frames.eq(self.frames + 1),
-                         flush_left.eq(self.flush)]
-            if fault:
-                m.d.sync += self.faults.eq(self.faults + 1)
-            m.next = "FLUSH" if self.flush else "WAIT"
-
         with m.FSM(init="WAIT"):
             with m.State("WAIT"):
                 sof_l = fl.r_rdy & hl.sof
@@ -188,26 +189,29 @@ class StereoSynchronizer(wiring.Component):
             with m.State("FRAME"):
                 def markers_ok(head):
                     return (head.sol == at_x0) & (head.sof == at_first)
-                bad = ((fl.r_rdy & ~markers_ok(hl)) | (fr.r_rdy & ~markers_ok(hr)))
+                bad = ((fl.r_rdy & ~markers_ok(hl)) | (fr.r_rdy & ~markers_ok(hr))
+                       # full facing empty: that side overruns on its next word
+                       | ((fl.r_level == depth) & ~fr.r_rdy)
+                       | ((fr.r_level == depth) & ~fl.r_rdy))
                 with m.If(bad):
-                    m.next = "ABORT"
+                    # abort: no padding, no flush; WAIT drops the damaged words and
+                    # keeps a head sof as the next frame's start
+                    m.d.sync += self.faults.eq(self.faults + 1)
+                    m.next = "WAIT"
                 with m.Elif(fl.r_rdy & fr.r_rdy):
                     m.d.comb += [fl.r_en.eq(1), fr.r_en.eq(1)]
                     m.d.sync += [
                         out.valid.eq(1), pay.first.eq(at_first),
                         pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
                         pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
+                        x.eq(x + 1),
                     ]
-                    advance()
+                    with m.If(x == w - 1):
+                        m.d.sync += [x.eq(0), y.eq(y + 1)]
                     with m.If(at_last):
-                        end_of_frame(0)
-
-            with m.State("ABORT"):
-                # the rest of the frame as zero pixels, so the stages behind count right
-                m.d.sync += [out.valid.eq(1), pay.first.eq(at_first)]
-                advance()
-                with m.If(at_last):
-                    end_of_frame(1)
+                        m.d.sync += [self.frames.eq(self.frames + 1),
+                                     flush_left.eq(self.flush)]
+                        m.next = "FLUSH" if self.flush else "WAIT"
 
             with m.State("FLUSH"):
                 m.d.sync += [out.valid.eq(1), flush_left.eq(flush_left - 1)]

@@ -4,7 +4,13 @@ CameraCapture against its golden model ``capture_words``, and two captures in th
 own PCLK domains feeding the StereoSynchronizer, clean and with every link fault.
 
 Multi-clock runs: ``sync`` 10 ns, ``cam_left`` 20 ns, ``cam_right`` 20 ns with a 7 ns
-phase offset (21 ns in the clean run), cameras started 200-250 PCLK cycles apart.
+phase offset (21 ns in the clean run), cameras started 200-250 PCLK cycles apart
+(6 cycles in the small-FIFO run).
+
+Synchroniser output contract checked on every run: a completed frame is W*H pixel
+beats (``first`` on the first) immediately followed by FLUSH flush beats; an aborted
+frame is a prefix of its pixel beats and nothing more (no padding, no flush), the
+next beat being the next frame's ``first``; nothing between frames.
 """
 import numpy as np
 import pytest
@@ -61,8 +67,8 @@ class _StereoTop(Elaboratable):
 
 def _run_stereo(wave_l, wave_r, *, right_ns=CAM_NS, right_phase_ns=7, reset_at_ns=None,
                 **sync_kw):
-    """Simulate; returns (beats, counters). ``beats``: (cycle, payload, frame_fault) of
-    every valid output cycle, or ("reset", cycle) when the sync reset was high."""
+    """Simulate; returns (beats, counters). ``beats``: (cycle, payload) of every valid
+    output cycle, or ("reset", cycle) when the sync reset was high."""
     sync_kw.setdefault("flush", FLUSH)
     top = _StereoTop(**sync_kw)
     tail = 80
@@ -81,14 +87,14 @@ def _run_stereo(wave_l, wave_r, *, right_ns=CAM_NS, right_phase_ns=7, reset_at_n
         return tb
 
     async def collector(ctx):
-        o, fault, rst = top.sync.o_stream, top.sync.frame_fault, top.domains[0].rst
+        o, rst = top.sync.o_stream, top.domains[0].rst
         payload = o.payload.as_value()
         cycle = 0
         while True:
             if ctx.get(rst):
                 beats.append(("reset", cycle))
             elif ctx.get(o.valid):
-                beats.append((cycle, ctx.get(payload), ctx.get(fault)))
+                beats.append((cycle, ctx.get(payload)))
             await ctx.tick("sync")
             cycle += 1
 
@@ -129,64 +135,62 @@ def _unpack(payload):
 
 
 def _split(beats, flush=FLUSH):
-    """Output frames, checking the contract: ``first`` on the first pixel only, W*H
-    pixels, then exactly ``flush`` zero beats on consecutive cycles, nothing between
-    frames. A frame cut by the sync reset is discarded (the pipeline is reset too).
-    Returns a list of (left bytes (H, 2W), right bytes (H, 2W), frame_fault)."""
+    """Output frames, checking the contract: ``first`` on the first pixel only; a
+    completed frame is W*H pixels then exactly ``flush`` zero beats on consecutive
+    cycles; an aborted frame is fewer than W*H pixels, ended by the next frame's
+    ``first`` (so no flush after it); nothing between frames. A frame cut by the sync
+    reset is discarded (the pipeline is reset too). Returns a list of (pixels
+    (p, 4) uint8: left luma, left chroma, right luma, right chroma; complete)."""
     frames, current = [], None
     n = W * H
+
+    def close(complete):
+        frames.append((np.array(current["pixels"], dtype=np.uint8).reshape(-1, 4),
+                       complete))
+
     for beat in beats:
         if beat[0] == "reset":
             current = None
             continue
-        cycle, payload, fault = beat
+        cycle, payload = beat
         first, *pix = _unpack(payload)
-        if current is None:
-            assert first, f"cycle {cycle}: beat outside a frame"
-            current = {"pixels": [], "flush": [], "fault": None}
+        if first:
+            if current is not None:
+                # the frame before was aborted: pixels only, no padding, no flush
+                assert len(current["pixels"]) < n, \
+                    f"cycle {cycle}: first after a full frame without its flush"
+                close(False)
+            current = {"pixels": [], "flush": []}
+        assert current is not None, f"cycle {cycle}: beat outside a frame"
         if len(current["pixels"]) < n:
-            assert first == (not current["pixels"]), f"cycle {cycle}: misplaced first"
             current["pixels"].append(pix)
             if len(current["pixels"]) == n:
-                current["fault"], current["last"] = fault, cycle
+                current["last"] = cycle
         else:
             assert payload == 0, f"cycle {cycle}: flush beat with payload {payload:#x}"
             current["flush"].append(cycle)
         if len(current["pixels"]) == n and len(current["flush"]) == flush:
             cycles = current["last"] + 1 + np.arange(flush)
             assert current["flush"] == cycles.tolist(), "flush beats not one per clock"
-            pix = np.array(current["pixels"], dtype=np.uint8).reshape(H, W, 4)
-            left = pix[:, :, 0:2].reshape(H, 2 * W)
-            right = pix[:, :, 2:4].reshape(H, 2 * W)
-            frames.append((left, right, current["fault"]))
+            close(True)
             current = None
     assert current is None, "the run ended inside a frame"
     return frames
 
 
 def _identify(frames, cams_l, cams_r):
-    """Each output frame as the camera frame index it holds: ``k`` (both sides equal
-    to camera frame k bit for bit, frame_fault 0) or ``"k!p"`` (aborted: both sides
-    hold the first p pixels of frame k, then zeros; frame_fault 1)."""
+    """Each output frame as the camera frame index it holds: ``k`` (complete, both
+    sides equal to camera frame k bit for bit) or ``"k!p"`` (aborted: p pixels, both
+    sides equal to the first p pixels of camera frame k)."""
+    cams = np.concatenate([cams_l.reshape(len(cams_l), -1, 2),
+                           cams_r.reshape(len(cams_r), -1, 2)], axis=2)  # (k, W*H, 4)
     seq = []
-    for left, right, fault in frames:
-        whole = [k for k in range(len(cams_l))
-                 if (left == cams_l[k]).all() and (right == cams_r[k]).all()]
-        if whole:
-            assert fault == 0, f"frame {whole[0]} complete but flagged"
-            seq.append(whole[0])
-            continue
-        assert fault == 1, "damaged frame not flagged"
-        flat_l, flat_r = left.reshape(-1, 2), right.reshape(-1, 2)
-        found = None
-        for k in range(len(cams_l)):
-            ok = ((flat_l == cams_l[k].reshape(-1, 2)).all(1)
-                  & (flat_r == cams_r[k].reshape(-1, 2)).all(1))
-            prefix = int(np.argmin(ok))
-            if prefix >= W and not flat_l[prefix:].any() and not flat_r[prefix:].any():
-                found = f"{k}!{prefix}"
-        assert found is not None, "aborted frame is not a prefix of a camera frame"
-        seq.append(found)
+    for pix, complete in frames:
+        p = len(pix)
+        match = [k for k in range(len(cams)) if (cams[k, :p] == pix).all()]
+        assert match, f"{'complete' if complete else 'aborted'} frame of {p} pixels " \
+                      "is no camera frame (or prefix of one)"
+        seq.append(match[0] if complete else f"{match[0]}!{p}")
     return seq
 
 
@@ -201,7 +205,6 @@ def test_stereo_clean_frames_bit_exact():
     assert _identify(frames, cams_l, cams_r) == [0, 1, 2, 3, 4]
     assert counters["frames"] == 5 and counters["faults"] == 0 and counters["stale"] == 0
     assert counters["started"] == [5, 5] and counters["overruns"] == [0, 0]
-    assert beats[-1][1:] == (0, 0)  # frame_fault stayed 0
 
 
 def _fault_case(kind):
@@ -227,8 +230,8 @@ def _fault_case(kind):
     return cams_l, cams_r, wave_l, wave_r, reset_at
 
 
-# damaged frame 1 -> what comes out ("1!p": aborted after its first p pixels); the
-# next frame (2) is always bit-exact again
+# damaged frame 1 -> what comes out ("1!p": aborted after its first p pixels, no
+# padding, no flush); the next frame (2) is always complete and bit-exact again
 FAULTS = {
     "cut_frame": [0, f"1!{3 * W}", 2, 3],                 # lines 0-2 got through
     "href_glitch": [0, f"1!{H * W - 1}", 2, 3],           # last pixel lost
@@ -254,11 +257,46 @@ def test_stereo_fault_resynchronises_next_frame(kind):
         # counters restart with the reset: frames 2 and 3 after it
         assert counters["frames"] == 2 and counters["faults"] == 0
     else:
-        assert counters["frames"] == len(expected)
+        # frames counts completed frames only
+        assert counters["frames"] == len(expected) - aborted
         assert counters["faults"] == aborted
     if kind.startswith("stop"):
         assert counters["stale"] == 1
     assert counters["overruns"] == [0, 0]
+
+
+# cameras at full rate (short blanking, one word every two PCLK cycles most of the
+# time), 6 PCLK cycles apart, behind 16-word FIFOs
+FAST = CameraTiming(vsync_cycles=20, front_porch=4, hblank=4, back_porch=10)
+
+
+@pytest.mark.parametrize("cut, overruns", [("leading", [0, 1]), ("lagging", [1, 0])],
+                         ids=["cut_leading", "cut_lagging"])
+def test_stereo_abort_keeps_next_frame_with_small_fifo(cut, overruns):
+    """Why an aborted frame is not padded: frame 1 of one camera is cut after 3 lines
+    and the 16-word FIFOs cannot hold the other camera's rest of frame 1 (72 words),
+    so that camera overruns on frame 1 (harmless: its capture restarts at frame 2).
+
+    * cut leading (left) camera: the cut shows when its frame-2 ``sof`` arrives.
+      Padding the 72 missing pixels took 72 ``sync`` clocks, in which it wrote 18+
+      words of frame 2 into its FIFO: it overran and frame 2 was lost as well.
+    * cut lagging (right) camera: the left FIFO, full of frame-1 words, faces an
+      empty one; unless that aborts the frame at once, the left frame-2 ``sof``
+      meets a full FIFO (the right frame-2 ``sof`` comes 6 cycles later) and
+      frame 2 is lost.
+
+    Now frame 2 is paired at once and bit-exact in both cases."""
+    cams_l, cams_r = _frames(4, 11), _frames(4, 12)
+    wave_l = camera_waveform(cams_l, FAST, start_delay=0)
+    wave_r = camera_waveform(cams_r, FAST, start_delay=6)
+    if cut == "leading":
+        wave_l = cut_frame(wave_l, 1, 3)
+    else:
+        wave_r = cut_frame(wave_r, 1, 3)
+    beats, counters = _run_stereo(wave_l, wave_r, fifo_depth=16, threshold=4, max_skew=8)
+    assert _identify(_split(beats), cams_l, cams_r) == [0, f"1!{3 * W}", 2, 3]
+    assert counters["frames"] == 3 and counters["faults"] == 1
+    assert counters["stale"] == 0 and counters["overruns"] == overruns
 
 
 def test_domain_renaming_reaches_every_register():

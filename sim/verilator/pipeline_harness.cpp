@@ -7,8 +7,8 @@
 //   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
 //                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
 //                 last sample the camera idles with VSYNC high
-//   OUT           one record per frame: 8 little-endian int64
-//                 (cycle, x, y, flag, centroid_x, centroid_y, area, fault)
+//   OUT           one record per frame: 7 little-endian int64
+//                 (cycle, x, y, flag, centroid_x, centroid_y, area)
 //   *_PS          clock periods and phases (first rising edge) in picoseconds
 //   DRAIN         pipeline cycles run after both cameras' last sample
 //   RESET_AT      pipeline cycle at which every domain is reset (-1: never),
@@ -96,10 +96,10 @@ int main(int argc, char** argv) {
         // the pipeline's outputs, sampled just before its rising edge
         if (clocks[0].next == t && !clocks[0].level) {
             if (top->out_valid) {
-                const int64_t rec[8] = {cycles, top->out_x, top->out_y, top->out_flag,
+                const int64_t rec[7] = {cycles, top->out_x, top->out_y, top->out_flag,
                                         top->out_centroid_x, top->out_centroid_y,
-                                        top->out_area, top->out_fault};
-                records.insert(records.end(), rec, rec + 8);
+                                        top->out_area};
+                records.insert(records.end(), rec, rec + 7);
             }
             if (want_video && top->video_valid)
                 video.push_back(static_cast<uint16_t>((top->video_first << 8) | top->video_pixel));
@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
     }
     std::printf("{\"cycles\": %ld, \"records\": %zu, \"frames\": %ld, \"faults\": %ld, "
                 "\"seconds\": %.6f, \"cycles_per_second\": %.1f}\n",
-                cycles, records.size() / 8, frames, faults, seconds,
+                cycles, records.size() / 7, frames, faults, seconds,
                 cycles / (seconds > 0 ? seconds : 1e-9));
     delete top;
     delete context;
