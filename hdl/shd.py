@@ -96,8 +96,9 @@ class SumOfHammingDistances(wiring.Component):
         m.submodules.columns = cols = self._columns
         m.submodules.windows = wins = self._windows
         lh = self._ham[0][0].cycles
+        partners = pos.thermometer(nd, "partner")  # bit d: x >= d
         for d in range(nd):
-            has_partner = delay(m, pos.x >= d, lh, f"partner_{d}")
+            has_partner = delay(m, partners[d], lh, f"partner_{d}")
             for win, left, field in ((1, p.left, cols.i_stream.payload.enter),
                                      (2, p.left2, cols.i_stream.payload.leave)):
                 ham = self._ham[win - 1][d]
