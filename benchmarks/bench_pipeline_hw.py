@@ -138,7 +138,7 @@ def main(argv=None):
     warnings.filterwarnings("ignore", module="amaranth")
     result = {"timing": timing()}
     t = result["timing"]
-    print(f"Timing at 640x480, Wc=7, Wh=29, D=48, W=11 (clock cycles)")
+    print("Timing at 640x480, Wc=7, Wh=29, D=48, W=11 (clock cycles)")
     print(f"  look-ahead per stage: {t['lag_per_stage']}")
     print(f"  flush {t['flush_beats']}, per frame {t['frame_cycles']} = 640*480 + "
           f"{t['flush_beats']} (thesis eq. 40: {EQ40_CYCLES}); {t['frame_ms_at_100mhz']} ms, "

@@ -14,7 +14,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.census import CENSUS_WINDOW_RANGE, census_offsets
 
-from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window, delay
+from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window
 from .window import WindowGenerator
 
 __all__ = ["SparseCensus"]

@@ -40,7 +40,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.pipeline import PipelineParams
 
-from ._util import OVERRUN_ROWS, bits_for, check_geometry, check_int
+from ._util import OVERRUN_ROWS, bits_for, check_geometry
 from .camera_capture import CameraCapture
 from .centroid import Centroid
 from .gesture_spotting import GestureSpotting

@@ -8,11 +8,11 @@ pipeline: a result appears ``cycles`` clock cycles after its inputs.
 """
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Module, Signal
+from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import bits_for, check_int
+from ._util import check_int
 
 __all__ = ["HammingDistance"]
 

@@ -94,7 +94,6 @@ def run_stream(dut, beats: list[int], *, idle: float = 0.0, seed: int = 0,
     i, o = dut.i_stream, dut.o_stream
     out: list[int] = []
     idle_at = gap_pattern(4 * len(beats) + 16, idle, seed)
-    has_real = "real" in o.payload.shape().members
 
     async def testbench(ctx):
         import time

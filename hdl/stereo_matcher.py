@@ -130,7 +130,6 @@ class StereoMatcher(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        w, h = self.width, self.height
         beat = Signal()
         first = Signal()
         left = Signal(self.pixel_bits)

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import shutil
 import subprocess
 import tempfile
 from dataclasses import asdict, dataclass
@@ -21,7 +19,7 @@ import numpy as np
 
 from sim.model.pipeline import PipelineParams
 
-from .verilator_sim import BUILD, ROOT, _source_digest, verilator_env
+from .verilator_sim import BUILD, ROOT, _source_digest, verilate
 
 __all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
            "run_clip_hardware", "RECORD_FIELDS"]
@@ -122,34 +120,11 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     exe = folder / "obj_dir" / "pipeline_harness"
     if exe.exists():
         return exe
-    BUILD.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
-    try:
-        core = TOP + "_core"
-        from .synthesis import component_ports
-        text = verilog.convert(top, name=core, ports=component_ports(top), emit_src=False)
-        (tmp / f"{TOP}.v").write_text(text + _wrapper(top, core))
-        (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
-        jobs = jobs or os.cpu_count() or 1
-        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs),
-               "-Wno-fatal", "-Wno-WIDTH", "-Wno-UNOPTFLAT", "-Wno-CMPCONST", "-Wno-UNSIGNED",
-               "--x-assign", "fast", "--x-initial", "fast", "-O3",
-               "--top-module", TOP, "-o", "pipeline_harness", "--Mdir", "obj_dir",
-               "-CFLAGS", cflags, "--threads", str(threads),
-               # The wheel's verilated.mk leaves the precompiled-header flag empty.
-               "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
-               f"{TOP}.v", str(HARNESS)]
-        proc = subprocess.run(cmd, cwd=tmp, env=verilator_env(), capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise RuntimeError(f"verilator failed ({proc.returncode}):\n{proc.stdout[-4000:]}\n"
-                               f"{proc.stderr[-4000:]}")
-        if folder.exists():
-            shutil.rmtree(folder)
-        tmp.rename(folder)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-    return exe
+    from .synthesis import component_ports
+    core = TOP + "_core"
+    text = verilog.convert(top, name=core, ports=component_ports(top), emit_src=False)
+    return verilate(folder, f"{TOP}.v", text + _wrapper(top, core), spec, TOP,
+                    "pipeline_harness", HARNESS, jobs=jobs, cflags=cflags, threads=threads)
 
 
 def clip_timing(width: int, height: int, flush: int, clocks: Clocks = Clocks()):

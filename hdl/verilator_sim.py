@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["verilator_env", "emit_verilog", "build_matcher", "run_matcher", "HARNESS"]
+__all__ = ["verilator_env", "verilate", "emit_verilog", "build_matcher", "run_matcher",
+           "HARNESS"]
 
 ROOT = Path(__file__).resolve().parent.parent
 HARNESS = ROOT / "sim" / "verilator" / "stereo_harness.cpp"
@@ -77,32 +78,26 @@ def _params(dut) -> dict:
                 disparity_median=dut.disparity_median)
 
 
-def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
-    """Build (or reuse) the Verilated harness of ``StereoMatcher(**params)``; returns
-    the executable's path."""
-    from .stereo_matcher import StereoMatcher
-    dut = StereoMatcher(**params)
-    spec = _params(dut)
-    key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    folder = BUILD / f"{key}-{_source_digest()}"
-    exe = folder / "obj_dir" / "stereo_harness"
-    if exe.exists():
-        return exe
+def verilate(folder: Path, verilog_name: str, verilog_text: str, spec: dict, top: str,
+             exe_name: str, harness: Path, *, jobs: int | None = None, cflags: str = "-O1",
+             threads: int = 1, log=None) -> Path:
+    """Verilate ``verilog_text`` with the C++ ``harness`` into ``folder`` (built in a
+    temporary sibling and renamed into place, so a failed build leaves nothing);
+    returns the executable."""
     BUILD.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
     try:
-        core = TOP + "_core"
-        (tmp / f"{TOP}.v").write_text(emit_verilog(dut, core) + _wrapper(dut, core))
+        (tmp / verilog_name).write_text(verilog_text)
         (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
         jobs = jobs or os.cpu_count() or 1
         cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs),
                "-Wno-fatal", "-Wno-WIDTH", "-Wno-UNOPTFLAT", "-Wno-CMPCONST", "-Wno-UNSIGNED",
                "--x-assign", "fast", "--x-initial", "fast", "-O3",
-               "--top-module", TOP, "-o", "stereo_harness", "--Mdir", "obj_dir",
-               "-CFLAGS", "-O1",
+               "--top-module", top, "-o", exe_name, "--Mdir", "obj_dir",
+               "-CFLAGS", cflags, "--threads", str(threads),
                # The wheel's verilated.mk leaves the precompiled-header flag empty.
                "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
-               f"{TOP}.v", str(HARNESS)]
+               verilog_name, str(harness)]
         proc = subprocess.run(cmd, cwd=tmp, env=verilator_env(), capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"verilator failed ({proc.returncode}):\n{proc.stdout[-4000:]}\n"
@@ -115,6 +110,23 @@ def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+    return folder / "obj_dir" / exe_name
+
+
+def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
+    """Build (or reuse) the Verilated harness of ``StereoMatcher(**params)``; returns
+    the executable's path."""
+    from .stereo_matcher import StereoMatcher
+    dut = StereoMatcher(**params)
+    spec = _params(dut)
+    key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
+    folder = BUILD / f"{key}-{_source_digest()}"
+    exe = folder / "obj_dir" / "stereo_harness"
+    if exe.exists():
+        return exe
+    core = TOP + "_core"
+    verilate(folder, f"{TOP}.v", emit_verilog(dut, core) + _wrapper(dut, core), spec,
+             TOP, "stereo_harness", HARNESS, jobs=jobs, cflags="-O1", log=log)
     return exe
 
 

@@ -11,7 +11,6 @@ three clocks, no Python per cycle):
   frame produces no record, the pipeline resynchronises at the next frame, and
   every following record is bit-exact again.
 """
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -20,7 +19,7 @@ import numpy as np
 import pytest
 
 from hdl.gesture_pipeline import GesturePipeline
-from hdl.verilator_pipeline import Clocks, clip_timing, run_clip_hardware, run_pipeline
+from hdl.verilator_pipeline import clip_timing, run_clip_hardware, run_pipeline
 from sim import camera
 from sim.model.pipeline import PipelineParams, run_clip, track
 from tests.test_hdl_gesture_pipeline import SMALL, golden, small_frames
