@@ -28,7 +28,7 @@ Internally, two kinds of registers:
 """
 from __future__ import annotations
 
-from amaranth.hdl import Mux, Signal, signed
+from amaranth.hdl import Cat, Mux, Signal, signed
 
 from sim.model._check import check_int, check_odd_window
 
@@ -110,6 +110,7 @@ class RasterPosition:
             self.x.eq(Mux(first, x0, self._x)),
             self.y.eq(Mux(first, y0, self._y)),
         ]
+        self._cur_wrap, self._cur_sat = wrap, sat
         self._nx = Mux(wrap, 0, x1)
         self._ny = Mux(wrap & ~sat, y1, self.y)
         with m.If(beat):
@@ -157,6 +158,33 @@ class RasterPosition:
         row_end = self.registered(lambda x, y: x == self.width - 1, f"{name}_end")
         with m.If(self._beat):
             m.d.sync += reg.eq(Mux(row_end, 1, (current << 1) | 1))
+        return current
+
+    def sliding_flags(self, count: int, low: int, high: int, axis: str, name: str = "flags"):
+        """``count`` bits, bit i = (low - i <= v < high - i) with v the current
+        position's x or y (``axis``): the in-frame masks of a window's columns or
+        rows. Moving on by one position shifts the bits by one, so a register
+        shifts (a new top bit from one registered comparison) instead of 2 *
+        ``count`` comparators, which synthesis chains into deep logic."""
+        m = self._m
+
+        def bits(v):
+            return sum(1 << i for i in range(count) if low - i <= v < high - i)
+
+        top = count - 1
+        reg = Signal(count, name=f"{self.name}_{name}")
+        at_first = bits(self.x0 if axis == "x" else self.y0)
+        current = Mux(self._first, at_first, reg)
+        if axis == "x":
+            entering = self.registered(
+                lambda x, y: (x + 1 >= low - top) & (x + 1 < high - top), f"{name}_in")
+            nxt = Mux(self._cur_wrap, bits(0), Cat(current[1:], entering))
+        else:
+            entering = self.registered(
+                lambda x, y: (y + 1 >= low - top) & (y + 1 < high - top), f"{name}_in")
+            nxt = Mux(self._cur_wrap & ~self._cur_sat, Cat(current[1:], entering), current)
+        with m.If(self._beat):
+            m.d.sync += reg.eq(nxt)
         return current
 
     @property

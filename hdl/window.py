@@ -15,7 +15,7 @@ masks those taps.
 """
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Module, Signal
+from amaranth.hdl import Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -82,12 +82,9 @@ class WindowGenerator(wiring.Component):
         # Window position and border masks, computed at the input beat.
         pos = RasterPosition(w, h, self.lag, "centre").elaborate(m, beat, first)
         # (registered flags: comparisons with constants, done for the next position)
-        rows1 = Cat(*[pos.registered(lambda x, y, i=i: (y >= r - i) & (y < h + r - i), f"row1_{i}")
-                      for i in range(win)])
-        cols = Cat(*[pos.registered(lambda x, y, j=j: (x >= r - j) & (x < w + r - j), f"col_{j}")
-                     for j in range(win)])
-        rows2 = Cat(*[pos.registered(lambda x, y, i=i: (y >= sep + r - i) & (y < h + sep + r - i),
-                                     f"row2_{i}") for i in range(win)]) if sep else 0
+        rows1 = pos.sliding_flags(win, r, h + r, "y", "rows1")
+        cols = pos.sliding_flags(win, r, w + r, "x", "cols")
+        rows2 = pos.sliding_flags(win, sep + r, h + sep + r, "y", "rows2") if sep else 0
 
         # Rows k = 1 .. N above the input row reach the window through delay lines:
         # behind a window row (whose shift register already holds `win` pixels of
