@@ -46,7 +46,7 @@ phase difference, and the frame after a damaged one is paired normally.
 """
 from __future__ import annotations
 
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.fifo import AsyncFIFO
 from amaranth.lib.wiring import In, Out
@@ -156,12 +156,24 @@ class StereoSynchronizer(wiring.Component):
             heads.append((fifo, layout(fifo.r_data)))
         (fl, hl), (fr, hr) = heads
 
+        # Raster position as registered flags (no counter comparison between a
+        # register and the FIFOs' read enables).
         x = Signal(range(w))
-        y = Signal(range(h))
-        at_x0 = x == 0
-        at_first = at_x0 & (y == 0)
-        at_last = (x == w - 1) & (y == h - 1)
+        pixels_left = Signal(range(w * h))
+        at_x0 = Signal()
+        at_first = Signal()
+        at_last = Signal()
         flush_left = Signal(range(self.flush + 1))
+        # FIFO levels: the decisions below use them one clock late (registered
+        # after the Gray-code decode), which only delays a start or a drop by a cycle.
+        full_l, full_r, ahead_l, ahead_r, filled = (Signal(name=n) for n in (
+            "full_l", "full_r", "ahead_l", "ahead_r", "filled"))
+        m.d.sync += [
+            full_l.eq(fl.r_level == depth), full_r.eq(fr.r_level == depth),
+            ahead_l.eq(fl.r_level > fr.r_level + self.max_skew),
+            ahead_r.eq(fr.r_level > fl.r_level + self.max_skew),
+            filled.eq((fl.r_level >= self.threshold) & (fr.r_level >= self.threshold)),
+        ]
 
         out = self.o_stream
         pay = out.payload
@@ -173,17 +185,15 @@ class StereoSynchronizer(wiring.Component):
                 sof_r = fr.r_rdy & hr.sof
                 # a side's head sof is stale when its FIFO is full or far ahead of the
                 # other, whose head is not yet a sof: that frame has no partner
-                stale_l = sof_l & ~sof_r & ((fl.r_level == depth)
-                                            | (fl.r_level > fr.r_level + self.max_skew))
-                stale_r = sof_r & ~sof_l & ((fr.r_level == depth)
-                                            | (fr.r_level > fl.r_level + self.max_skew))
+                stale_l = sof_l & ~sof_r & (full_l | ahead_l)
+                stale_r = sof_r & ~sof_l & (full_r | ahead_r)
                 m.d.comb += [fl.r_en.eq((fl.r_rdy & ~hl.sof) | stale_l),
                              fr.r_en.eq((fr.r_rdy & ~hr.sof) | stale_r)]
                 with m.If(stale_l | stale_r):
                     m.d.sync += self.stale.eq(self.stale + 1)
-                with m.If(sof_l & sof_r & (fl.r_level >= self.threshold)
-                          & (fr.r_level >= self.threshold)):
-                    m.d.sync += [x.eq(0), y.eq(0)]
+                with m.If(sof_l & sof_r & filled):
+                    m.d.sync += [x.eq(0), pixels_left.eq(w * h - 1), at_x0.eq(1),
+                                 at_first.eq(1), at_last.eq(w * h == 1)]
                     m.next = "FRAME"
 
             with m.State("FRAME"):
@@ -191,8 +201,7 @@ class StereoSynchronizer(wiring.Component):
                     return (head.sol == at_x0) & (head.sof == at_first)
                 bad = ((fl.r_rdy & ~markers_ok(hl)) | (fr.r_rdy & ~markers_ok(hr))
                        # full facing empty: that side overruns on its next word
-                       | ((fl.r_level == depth) & ~fr.r_rdy)
-                       | ((fr.r_level == depth) & ~fl.r_rdy))
+                       | (full_l & ~fr.r_rdy) | (full_r & ~fl.r_rdy))
                 with m.If(bad):
                     # abort: no padding, no flush; WAIT drops the damaged words and
                     # keeps a head sof as the next frame's start
@@ -204,10 +213,10 @@ class StereoSynchronizer(wiring.Component):
                         out.valid.eq(1), pay.first.eq(at_first),
                         pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
                         pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
-                        x.eq(x + 1),
+                        x.eq(Mux(x == w - 1, 0, x + 1)), at_x0.eq(x == w - 1),
+                        at_first.eq(0), pixels_left.eq(pixels_left - 1),
+                        at_last.eq(pixels_left == 1),
                     ]
-                    with m.If(x == w - 1):
-                        m.d.sync += [x.eq(0), y.eq(y + 1)]
                     with m.If(at_last):
                         m.d.sync += [self.frames.eq(self.frames + 1),
                                      flush_left.eq(self.flush)]
