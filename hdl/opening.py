@@ -10,8 +10,7 @@ frame (before it and during the flush): its own position counter masks them.
 from __future__ import annotations
 
 from amaranth.hdl import Module
-from amaranth.lib import data, stream, wiring
-from amaranth.lib.wiring import In, Out
+from amaranth.lib import wiring
 
 from .morphology import BinaryMorphology
 
@@ -49,12 +48,9 @@ class Opening(wiring.Component):
         self.lag = self._erosion.lag + self._dilation.lag
         self.cycles = self._erosion.cycles + self._dilation.cycles
         self.memory_bits = self._erosion.memory_bits + self._dilation.memory_bits
-        super().__init__({
-            "i_stream": In(stream.Signature(data.StructLayout(
-                {"first": 1, "pixel": 1}), always_ready=True)),
-            "o_stream": Out(stream.Signature(data.StructLayout(
-                {"first": 1, "real": 1, "pixel": 1}), always_ready=True)),
-        })
+        # the mask streams of the two stages it chains
+        stage = self._erosion.signature.members
+        super().__init__({"i_stream": stage["i_stream"], "o_stream": stage["o_stream"]})
 
     def elaborate(self, platform):
         m = Module()
