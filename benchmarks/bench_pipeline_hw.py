@@ -82,8 +82,6 @@ def verilator_clip(frames: int):
 
 
 def blocks():
-    from amaranth.hdl import DomainRenamer
-
     from hdl.camera_capture import CameraCapture
     from hdl.centroid import Centroid
     from hdl.gesture_pipeline import GesturePipeline
@@ -108,15 +106,14 @@ def blocks():
         ("centroid", Centroid(WIDTH, HEIGHT)),
         ("moving_average", MovingAverage(10, 4, 8)),
         ("gesture_spotting", GestureSpotting(18, 8, 30, 16, 8)),
-    ], DomainRenamer
+    ]
 
 
 def synthesis():
     from hdl.synthesis import find_yosys, synthesize
     yosys = find_yosys()
     out = {}
-    parts, _ = blocks()
-    for name, dut in parts:
+    for name, dut in blocks():
         t = time.perf_counter()
         r = synthesize(dut, name, yosys)
         r["seconds"] = round(time.perf_counter() - t, 1)

@@ -15,14 +15,13 @@ from amaranth.hdl import Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.segmentation import _check_range
+from sim.model.segmentation import _check_range, check_band
 
 from ._util import bits_for, check_geometry, check_int, delay
 from .delay_line import BEATS_RANGE, CYCLES_RANGE, BeatDelay
 
 __all__ = ["HandSegmentation"]
 
-MAX_DISPARITY_RANGE = (2, 255)  # as sim.model.segmentation.disparity_band
 
 
 class HandSegmentation(wiring.Component):
@@ -75,14 +74,10 @@ class HandSegmentation(wiring.Component):
                  band_high: int | None = None, skin_delay_beats: int = 0,
                  skin_delay_cycles: int = 0):
         self.width, self.height = check_geometry(width, height)
-        self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
+        self.band_low, self.band_high, self.max_disparity = check_band(
+            band_low, band_high, max_disparity, names=("band_low", "band_high"))
         self.skin_cb = _check_range("skin_cb", skin_cb)
         self.skin_cr = _check_range("skin_cr", skin_cr)
-        self.band_low = check_int("band_low", band_low, 0, self.max_disparity - 2)
-        if band_high is None:
-            band_high = self.max_disparity - 2
-        self.band_high = check_int("band_high", band_high, self.band_low + 1,
-                                   self.max_disparity - 1)
         self.skin_delay_beats = check_int("skin_delay_beats", skin_delay_beats, *BEATS_RANGE)
         # The implementation needs no cycle (the comparators can feed the line
         # directly); from one cycle on they get their own register.

@@ -10,7 +10,7 @@ import numpy as np
 
 from ._check import check_bool_image, check_image, check_int, check_same_shape
 
-__all__ = ["skin_mask", "disparity_band", "hand_mask"]
+__all__ = ["skin_mask", "disparity_band", "hand_mask", "check_band"]
 
 
 def _check_range(name: str, value) -> tuple[int, int]:
@@ -54,6 +54,18 @@ def skin_mask(cb, cr, cb_range=(77, 127), cr_range=(133, 173)) -> np.ndarray:
     return (cb >= cb_lo) & (cb <= cb_hi) & (cr >= cr_lo) & (cr <= cr_hi)
 
 
+def check_band(low, high, max_disparity, names=("low", "high")) -> tuple[int, int, int]:
+    """Validate the band thresholds of :func:`disparity_band` (``high=None``:
+    ``max_disparity - 2``); returns ``(low, high, max_disparity)``. ``names``
+    are the parameter names used in the error messages."""
+    max_disparity = check_int("max_disparity", max_disparity, 2, 255)
+    low = check_int(names[0], low, 0, max_disparity - 2)
+    if high is None:
+        high = max_disparity - 2
+    high = check_int(names[1], high, low + 1, max_disparity - 1)
+    return low, high, max_disparity
+
+
 def disparity_band(disparity, low: int = 33, high: int | None = None,
                    max_disparity: int = 48) -> np.ndarray:
     """Pixels whose disparity lies strictly inside ``(low, high)`` (thesis §6.3, Fig. 58).
@@ -79,11 +91,7 @@ def disparity_band(disparity, low: int = 33, high: int | None = None,
     ValueError
         On a bad parameter or a disparity value outside ``[0, max_disparity - 1]``.
     """
-    max_disparity = check_int("max_disparity", max_disparity, 2, 255)
-    low = check_int("low", low, 0, max_disparity - 2)
-    if high is None:
-        high = max_disparity - 2
-    high = check_int("high", high, low + 1, max_disparity - 1)
+    low, high, max_disparity = check_band(low, high, max_disparity)
     disparity = check_image("disparity", disparity, dtype_kind="ui",
                             max_value=max_disparity - 1)
     return (disparity > low) & (disparity < high)
