@@ -11,7 +11,8 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order a user meets them.
-COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures", "train", "classify")
+COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures", "train", "classify",
+            "resources", "generate")
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

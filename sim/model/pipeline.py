@@ -85,6 +85,16 @@ class PipelineParams:
     def as_dict(self) -> dict:
         return asdict(self)
 
+    @classmethod
+    def for_frame(cls, width: int, **overrides) -> "PipelineParams":
+        """The thesis values with the spotting threshold Tm, a distance in pixels
+        set for 640-pixel-wide frames, scaled to ``width`` (the same hand motion
+        spans half the pixels at 320); every other value is kept."""
+        check_int("width", width, 16, 4096)
+        values = dict(spot_threshold=max(1, round(cls.spot_threshold * width / 640)))
+        values.update(overrides)
+        return cls(**values)
+
 
 def _renamed(names: dict[str, str], check: Callable, *args) -> None:
     """Call ``check(*args)``; re-raise its ``ValueError`` with the leading argument

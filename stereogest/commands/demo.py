@@ -1,22 +1,30 @@
-"""The main job: render a synthetic stereo clip of one of the seven thesis
-gestures, run the golden model of the FPGA pipeline over it, play the
-per-frame (x, y, gesture flag) stream into the unmodified board application
-(sw_hps) through a simulated FIFO peripheral, and print the recognised gesture,
-the NXT telegram and where the pictures of every stage are. The last line is
-JSON with gesture (rendered), recognised and telegram (hex)."""
+"""The main job, cameras to robot command: render a synthetic stereo clip of one
+of the seven thesis gestures; simulate the generated Verilog of the whole FPGA
+side (soc.core.StereogestCore: camera capture to the Avalon FIFO slave, the
+UART and the VGA view) under Verilator, fed the clip as camera pin waveforms;
+run the unmodified board application (sw_hps) against those registers through
+a simulated-bus backend; print the recognised gesture and the NXT telegram
+bytes seen on the UART pin. The golden model runs beside it: it draws a picture
+of every stage and checks the FIFO words and the VGA frame. The last line is
+JSON with gesture (rendered), recognised and telegram (hex).
+
+``--backend model`` runs the golden model only (the application then reads a
+simulated FIFO), for a quick look."""
 from __future__ import annotations
 
 import json
+import sys
 import time
 from pathlib import Path
 
 NAME = "demo"
 #: The trained model shipped with the board application (``make model`` rebuilds it).
 DEFAULT_MODEL = "thesis7.json"
-HELP = "render a gesture clip and run the pipeline over it (the main job)"
+HELP = "render a gesture clip and run it from camera pins to robot command (the main job)"
 
 
 def add_arguments(p):
+    from hdl.gesture_pipeline import VIDEO_STAGES
     from sim.gesture_shapes import GESTURE_NAMES
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
@@ -24,17 +32,32 @@ def add_arguments(p):
     p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
     p.add_argument("--height", type=int, default=480, help="frame height in pixels (even)")
     p.add_argument("-o", "--output", metavar="OUTDIR", default="demo-out",
-                   help="directory for the clip (OUTDIR/clip) and the pictures (OUTDIR/pipeline)")
+                   help="directory for the clip (OUTDIR/clip), the stage pictures "
+                        "(OUTDIR/pipeline) and the VGA frame (OUTDIR/vga.png)")
+    p.add_argument("--backend", choices=("verilator", "model"), default="verilator",
+                   help="verilator: the whole FPGA side's Verilog (default); model: the "
+                        "golden model only, the application on a simulated FIFO")
+    p.add_argument("--stage", choices=VIDEO_STAGES, default="opening",
+                   help="pipeline stage shown on the VGA view (SW[9:7], thesis Table 22)")
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file for the board application (default: the trained "
                         "model shipped in sw_hps/models/thesis7.json)")
     p.add_argument("--threads", type=int, default=None,
-                   help="worker threads for the stereo cost stage (default: CPUs, at most 4)")
+                   help="worker threads for the golden model's stereo cost stage "
+                        "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def _say(quiet: bool):
+    def say(text: str) -> None:
+        if not quiet:
+            print(text, file=sys.stderr, flush=True)
+    return say
 
 
 def run(args) -> int:
     from sim.clip import save_clip
+    from sim.images import write_png
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
     from stereogest.commands.pipeline import parse_frames, progress_printer, write_outputs
@@ -42,7 +65,10 @@ def run(args) -> int:
     from sw_hps.hmm import load_models
 
     import sw_hps
+    say = _say(args.quiet)
     models = load_models(args.model or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
+    params = PipelineParams.for_frame(args.width)
+    params.validate(args.width, args.height)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -51,27 +77,73 @@ def run(args) -> int:
     print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
           f"{clip.motion_frames[1]} -> {clip_dir}")
-    params = PipelineParams()
+    if params.spot_threshold != PipelineParams().spot_threshold:
+        print(f"spotting threshold Tm scaled to the frame width: {params.spot_threshold} px")
+
     chosen = set(parse_frames(None, clip.frames, tuple(clip.motion_frames)))
-    trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
-                                progress=progress_printer(args.quiet), threads=args.threads)
+    say("golden model:")
+    if args.backend == "model":
+        trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
+                                    progress=progress_printer(args.quiet), threads=args.threads)
+    else:
+        from soc.end_to_end import clip_end_to_end
+        trajectory, kept, extra, result = clip_end_to_end(
+            clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
+            model_progress=progress_printer(args.quiet), progress=say)
     pictures = out / "pipeline"
     summary = write_outputs(pictures, clip, trajectory, kept, params,
                             time.perf_counter() - start)
     flagged = trajectory.flag.nonzero()[0]
     span = f"{flagged[0]}-{flagged[-1]}" if flagged.size else "none"
-    print(f"gesture flagged in frames {span} (truth: motion {clip.motion_frames[0]}-"
-          f"{clip.motion_frames[1]})")
-    print(f"orientation symbols (0=right 2=up 4=left 6=down): {summary['symbols'] or '(none)'}")
+    print(f"golden model: gesture flagged in frames {span} (truth: motion "
+          f"{clip.motion_frames[0]}-{clip.motion_frames[1]}); orientation symbols "
+          f"(0=right 2=up 4=left 6=down): {summary['symbols'] or '(none)'}")
     print(f"stage pictures and trajectory.csv in {pictures}")
-    board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
-                              trajectory.flag, pixels=False)
-    recognised = board.recognised[-1] if board.recognised else None
-    telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
-    print(f"board application: recognised {recognised or 'nothing'}"
-          + (f", NXT telegram {telegram}" if telegram else ""))
-    print(json.dumps({"gesture": args.gesture, "recognised": recognised, "telegram": telegram,
-                      "frames": clip.frames, "flagged": int(trajectory.flag.sum()),
-                      "symbols": summary["symbols"],
-                      "seconds": round(time.perf_counter() - start, 1)}))
+    report = {"gesture": args.gesture, "frames": clip.frames, "width": clip.width,
+              "height": clip.height, "backend": args.backend,
+              "flagged": int(trajectory.flag.sum()), "symbols": summary["symbols"]}
+
+    if args.backend == "model":
+        board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
+                                  trajectory.flag, pixels=False)
+        recognised = board.recognised[-1] if board.recognised else None
+        telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
+        print(f"board application (simulated FIFO): recognised {recognised or 'nothing'}"
+              + (f", NXT telegram {telegram}" if telegram else ""))
+    else:
+        if extra:
+            print(f"the gesture was still flagged at the last frame: the cameras held the "
+                  f"hand still for {extra} more frames (trajectory.csv includes them)")
+        write_png(out / "vga.png", result.vga, bits=8)
+        recognised = result.recognised
+        telegram = result.uart_bytes.hex(" ") if result.uart_bytes else None
+        cps = result.stats.get("cycles_per_second", 0)
+        print(f"hardware: {result.cycles:,} pipeline cycles in {result.seconds:.1f} s "
+              f"({cps:,.0f} cycles/s), LEDR = {result.leds:010b}")
+        print(f"FIFO words popped by the application: {len(result.popped)}, "
+              + ("equal to the golden model's" if result.fifo_matches_model else
+                 f"DIFFERENT from the golden model's {len(result.expected)}"))
+        mism = result.vga_mismatches
+        print(f"VGA frame ({args.stage}, {out / 'vga.png'}): "
+              + ("equal to the golden model's picture" if mism == 0 else
+                 f"{mism} pixels differ from the golden model's picture"))
+        print(f"UART TX pin: {telegram or 'nothing'}"
+              + (" (the application's telegram)" if result.uart_matches_telegram
+                 else " (DIFFERENT from the application's telegram "
+                 f"{result.telegram.hex(' ') if result.telegram else None})"))
+        print(f"board application: recognised {recognised or 'nothing'}"
+              + (f", NXT telegram {telegram}" if telegram else ""))
+        report.update(fifo_matches_model=result.fifo_matches_model, vga_mismatches=mism,
+                      uart_matches_telegram=result.uart_matches_telegram,
+                      hardware_seconds=round(result.seconds, 1), cycles=result.cycles,
+                      held_frames=extra)
+        if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram):
+            report.update(recognised=recognised, telegram=telegram)
+            print(json.dumps(report))
+            print("demo: error: the hardware and the golden model disagree (see above)",
+                  file=sys.stderr)
+            return 1
+    report.update(recognised=recognised, telegram=telegram,
+                  seconds=round(time.perf_counter() - start, 1))
+    print(json.dumps(report))
     return 0

@@ -1,0 +1,284 @@
+// Harness for the Verilated StereogestCore (soc/core.py): the whole FPGA side
+// with its five clocks, camera pins replayed from files, and a command loop on
+// stdin/stdout so that Python (the unmodified HPS application) reaches the
+// Avalon-MM slaves while the cameras keep streaming.
+//
+// usage: system_harness LEFT RIGHT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
+//                       CONFIG_PS VGA_PS STAGE VGA_WIDTH VGA_HEIGHT
+//   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
+//                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
+//                 last sample the camera idles with VSYNC high
+//   *_PS          clock periods (and camera phases) in picoseconds
+//   STAGE         stage_select (SW[9:7]) for the whole run
+//   VGA_*         active area of the VGA mode
+// Commands (one per line, one reply line each):
+//   r ADDR        Avalon read at byte address ADDR (0x000-0x0ff FIFO slave,
+//                 0x100-0x1ff UART slave) -> "VALUE"
+//   w ADDR VALUE  Avalon write -> "ok"
+//   t NS          run NS nanoseconds -> "CYCLES DONE" (DONE: both cameras played out)
+//   v PATH        the next whole VGA frame's active area, red channel, to PATH
+//                 (uint8, row-major) -> "ok"
+//   u             UART TX line changes since the last "u" -> "N PS LEVEL PS LEVEL ..."
+//   q             -> one JSON line of statistics, then exit
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "Vstereogest_system.h"
+#include "verilated.h"
+
+static bool read_file(const char* path, std::vector<uint16_t>& out) {
+    FILE* f = std::fopen(path, "rb");
+    if (!f) return false;
+    std::fseek(f, 0, SEEK_END);
+    long bytes = std::ftell(f);
+    std::fseek(f, 0, SEEK_SET);
+    out.resize(bytes / 2);
+    bool ok = std::fread(out.data(), 2, out.size(), f) == out.size();
+    std::fclose(f);
+    return ok;
+}
+
+struct Clock {
+    long half;   // half period, ps
+    long next;   // time of the next toggle, ps
+    bool level;
+};
+
+enum { SYNC, LEFT, RIGHT, CONFIG, VGA, NCLOCKS };
+
+struct System {
+    VerilatedContext* context;
+    Vstereogest_system* top;
+    Clock clocks[NCLOCKS];
+    std::vector<uint16_t> pins[2];
+    long index[2] = {-1, -1};
+    long now = 0;       // ps
+    long cycles = 0;    // sync rising edges
+    long vga_cycles = 0;
+    bool vga_rose = false;
+    std::vector<long> tx_edges;
+    int tx_level = 1;
+
+    bool cameras_done() const {
+        return index[0] >= static_cast<long>(pins[0].size()) &&
+               index[1] >= static_cast<long>(pins[1].size());
+    }
+
+    // Process the next clock event; returns true if it was a sync rising edge.
+    bool step() {
+        long t = clocks[0].next;
+        for (int k = 1; k < NCLOCKS; ++k)
+            if (clocks[k].next < t) t = clocks[k].next;
+        now = t;
+        bool sync_rise = false;
+        vga_rose = false;
+        for (int k = 0; k < NCLOCKS; ++k) {
+            Clock& c = clocks[k];
+            if (c.next != t) continue;
+            c.level = !c.level;
+            c.next += c.half;
+            if (k == SYNC && c.level) {
+                sync_rise = true;
+                ++cycles;
+                top->reset = cycles < 8;
+            }
+            if (k == VGA && c.level) {
+                vga_rose = true;
+                ++vga_cycles;
+            }
+            if ((k == LEFT || k == RIGHT) && !c.level) {  // camera falling edge: next byte
+                const int cam = k - LEFT;
+                const long i = ++index[cam];
+                const uint16_t word = i < static_cast<long>(pins[cam].size()) ? pins[cam][i]
+                                                                              : (1u << 9);
+                if (cam == 0) {
+                    top->left_vsync = (word >> 9) & 1;
+                    top->left_href = (word >> 8) & 1;
+                    top->left_data = word & 0xff;
+                } else {
+                    top->right_vsync = (word >> 9) & 1;
+                    top->right_href = (word >> 8) & 1;
+                    top->right_data = word & 0xff;
+                }
+            }
+        }
+        top->clk = clocks[SYNC].level;
+        top->cam_left_clk = clocks[LEFT].level;
+        top->cam_right_clk = clocks[RIGHT].level;
+        top->config_clk = clocks[CONFIG].level;
+        top->vga_clk = clocks[VGA].level;
+        top->eval();
+        if (top->uart_tx != tx_level) {
+            tx_level = top->uart_tx;
+            tx_edges.push_back(now);
+            tx_edges.push_back(tx_level);
+        }
+        return sync_rise;
+    }
+
+    void sync_cycles(long n) {
+        while (n > 0)
+            if (step()) --n;
+    }
+
+    uint32_t read(uint32_t address) {
+        const bool uart = address >= 0x100;
+        const uint32_t word = (address & 0xff) >> 2;
+        if (uart) {
+            top->uart_address = word;
+            top->uart_read = 1;
+        } else {
+            top->fifo_address = word;
+            top->fifo_read = 1;
+        }
+        sync_cycles(1);  // the slave sees the read at this edge
+        top->fifo_read = 0;
+        top->uart_read = 0;
+        top->eval();
+        // fixed read latency 1: readdata holds the value during the next cycle
+        return uart ? top->uart_readdata : top->fifo_readdata;
+    }
+
+    void write(uint32_t address, uint32_t value) {
+        const bool uart = address >= 0x100;
+        const uint32_t word = (address & 0xff) >> 2;
+        if (uart) {
+            top->uart_address = word;
+            top->uart_writedata = value;
+            top->uart_write = 1;
+        } else {
+            top->fifo_address = word;
+            top->fifo_writedata = value;
+            top->fifo_write = 1;
+        }
+        sync_cycles(1);
+        top->fifo_write = 0;
+        top->uart_write = 0;
+        top->eval();
+    }
+
+    bool capture_vga(const char* path, int width, int height) {
+        // wait for the end of a vertical sync pulse (active low), then take the
+        // first width*height samples with blank_n high, just before VGA edges
+        std::vector<uint8_t> frame;
+        frame.reserve(static_cast<size_t>(width) * height);
+        int state = 0;  // 0: wait for vsync low, 1: wait for vsync high, 2: collect
+        while (frame.size() < static_cast<size_t>(width) * height) {
+            const int vsync = top->vga_vsync, blank_n = top->vga_blank_n, red = top->vga_r;
+            const bool next_is_vga_rise = !clocks[VGA].level && [&] {
+                long t = clocks[0].next;
+                for (int k = 1; k < NCLOCKS; ++k)
+                    if (clocks[k].next < t) t = clocks[k].next;
+                return clocks[VGA].next == t;
+            }();
+            if (next_is_vga_rise) {
+                if (state == 0 && !vsync) state = 1;
+                else if (state == 1 && vsync) state = 2;
+                else if (state == 2 && blank_n) frame.push_back(static_cast<uint8_t>(red));
+            }
+            step();
+        }
+        FILE* f = std::fopen(path, "wb");
+        if (!f) return false;
+        const bool ok = std::fwrite(frame.data(), 1, frame.size(), f) == frame.size();
+        std::fclose(f);
+        return ok;
+    }
+};
+
+int main(int argc, char** argv) {
+    if (argc != 13) {
+        std::fprintf(stderr, "usage: %s LEFT RIGHT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS "
+                             "RIGHT_PHASE CONFIG_PS VGA_PS STAGE VGA_WIDTH VGA_HEIGHT\n",
+                     argv[0]);
+        return 2;
+    }
+    System s;
+    for (int k = 0; k < 2; ++k) {
+        if (!read_file(argv[1 + k], s.pins[k])) {
+            std::fprintf(stderr, "cannot read %s\n", argv[1 + k]);
+            return 1;
+        }
+    }
+    const long sync_ps = std::atol(argv[3]);
+    s.clocks[SYNC] = {sync_ps / 2, sync_ps / 2, true};
+    s.clocks[LEFT] = {std::atol(argv[4]) / 2, std::atol(argv[5]), false};
+    s.clocks[RIGHT] = {std::atol(argv[6]) / 2, std::atol(argv[7]), false};
+    s.clocks[CONFIG] = {std::atol(argv[8]) / 2, std::atol(argv[8]) / 2, true};
+    s.clocks[VGA] = {std::atol(argv[9]) / 2, std::atol(argv[9]) / 2, true};
+    const int vga_width = std::atoi(argv[11]), vga_height = std::atoi(argv[12]);
+
+    s.context = new VerilatedContext;
+    s.top = new Vstereogest_system{s.context};
+    Vstereogest_system* top = s.top;
+    top->stage_select = std::atoi(argv[10]);
+    top->capture = 1;
+    top->pause = 0;
+    top->configure = 0;
+    top->uart_rx = 1;
+    top->left_vsync = 1;
+    top->right_vsync = 1;
+    top->reset = 1;
+    top->clk = 1;
+    top->config_clk = 1;
+    top->vga_clk = 1;
+    top->eval();
+
+    auto start = std::chrono::steady_clock::now();
+    std::string line;
+    while (std::getline(std::cin, line)) {
+        std::istringstream in(line);
+        std::string cmd;
+        in >> cmd;
+        if (cmd == "r") {
+            std::string a;
+            in >> a;
+            std::printf("%u\n", s.read(static_cast<uint32_t>(std::stoul(a, nullptr, 0))));
+        } else if (cmd == "w") {
+            std::string a, v;
+            in >> a >> v;
+            s.write(static_cast<uint32_t>(std::stoul(a, nullptr, 0)),
+                    static_cast<uint32_t>(std::stoul(v, nullptr, 0)));
+            std::printf("ok\n");
+        } else if (cmd == "t") {
+            long ns = 0;
+            in >> ns;
+            const long until = s.now + ns * 1000;
+            while (s.now < until) s.step();
+            std::printf("%ld %d\n", s.cycles, s.cameras_done() ? 1 : 0);
+        } else if (cmd == "v") {
+            std::string path;
+            in >> path;
+            std::printf(s.capture_vga(path.c_str(), vga_width, vga_height) ? "ok\n"
+                                                                            : "error\n");
+        } else if (cmd == "u") {
+            std::printf("%zu", s.tx_edges.size() / 2);
+            for (long v : s.tx_edges) std::printf(" %ld", v);
+            std::printf("\n");
+            s.tx_edges.clear();
+        } else if (cmd == "q") {
+            break;
+        } else {
+            std::printf("error unknown command %s\n", cmd.c_str());
+        }
+        std::fflush(stdout);
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("{\"cycles\": %ld, \"vga_cycles\": %ld, \"leds\": %d, \"seconds\": %.6f, "
+                "\"cycles_per_second\": %.1f, \"cameras_done\": %s}\n",
+                s.cycles, s.vga_cycles, static_cast<int>(top->leds), seconds,
+                s.cycles / (seconds > 0 ? seconds : 1e-9), s.cameras_done() ? "true" : "false");
+    std::fflush(stdout);
+    top->final();
+    delete top;
+    delete s.context;
+    return 0;
+}

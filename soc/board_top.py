@@ -1,0 +1,215 @@
+# amaranth: UnusedElaboratable=no
+"""The DE1-SoC top level: pins, PLL and resets around the Platform Designer
+system ``soc_system`` (HPS + :class:`soc.core.StereogestCore`).
+
+::
+
+    CLOCK_50 (AF14) --+--> altera_pll --> 100 MHz  soc_system clk (core clk, lw bridge)
+                      |                   25 MHz   vga domain: VGA DAC, its clock pin
+                      |                   24 MHz   xclk domain: both cameras' XCLK
+                      +--> config domain (50 MHz): the cameras' I2C masters
+    ov5642 #1 PCLK ------> cam_left domain  (left camera, GPIO_1)
+    ov5642 #0 PCLK ------> cam_right domain (right camera, GPIO_0)
+    KEY[0] or PLL unlocked --> reset of every domain (synchronised per domain)
+
+The core sits inside ``soc_system``; its conduits come out as ``soc_system``
+ports named by :func:`soc.platform_designer.exported_port_name`, and this top
+wires each to its pins by the core port's name (the ``sources`` and ``sinks``
+tables of :meth:`BoardTop.elaborate`). Board functions (KEY, SW, LEDR) are
+listed in :mod:`boards.de1_soc`.
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Cat, ClockDomain, ClockSignal, Const, Elaboratable, Instance, Module, \
+    ResetSignal, Signal
+from amaranth.lib import io
+from amaranth.lib.cdc import ResetSynchronizer
+
+from .platform_designer import SYSTEM_NAME, conduit_map, core_interfaces
+
+__all__ = ["BoardTop", "PLL_REFERENCE_HZ"]
+
+#: The board oscillator feeding the PLL and the ``config`` domain.
+PLL_REFERENCE_HZ = 50e6
+
+
+def _mhz(hz: float) -> str:
+    return f"{hz / 1e6:.6f} MHz"
+
+
+def _check_hz(name, value, low, high):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not low <= value <= high:
+        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
+    return float(value)
+
+
+class BoardTop(Elaboratable):
+    """Top level of the FPGA design for :class:`boards.de1_soc.StereogestDE1SoCPlatform`.
+
+    Parameters
+    ----------
+    core_ports : list of (name, direction, width)
+        The core's Verilog ports (:func:`soc.platform_designer.verilog_ports`
+        of the emitted core): the board wires each conduit port by name.
+    sync_hz, vga_hz, xclk_hz : float
+        PLL outputs: pipeline/bus clock (fed to ``soc_system``), VGA pixel
+        clock and camera XCLK. Defaults 100, 25 and 24 MHz, all integer
+        divisions of a 600 MHz VCO from the 50 MHz oscillator.
+
+    Raises
+    ------
+    ValueError
+        If a frequency is out of range, or (at elaboration) the core has a
+        conduit port this board does not know or with an unexpected direction.
+    """
+
+    def __init__(self, core_ports, *, sync_hz: float = 100e6, vga_hz: float = 25e6,
+                 xclk_hz: float = 24e6):
+        self.core_ports = [(str(n), str(d), int(w)) for n, d, w in core_ports]
+        core_interfaces(self.core_ports)        # validates the port list early
+        self.sync_hz = _check_hz("sync_hz", sync_hz, 10e6, 200e6)
+        self.vga_hz = _check_hz("vga_hz", vga_hz, 10e6, 100e6)
+        # OV5642 XCLK range
+        self.xclk_hz = _check_hz("xclk_hz", xclk_hz, 6e6, 27e6)
+
+    def elaborate(self, platform):
+        m = Module()
+
+        # --- clocks ---------------------------------------------------------------------
+        clk50_pin = platform.request("clk50", 0, dir="-")
+        m.submodules.clk50_buf = clk50_buf = io.Buffer("i", clk50_pin)
+        outclk, locked, fboutclk = Signal(3), Signal(), Signal()
+        m.submodules.pll = Instance(
+            "altera_pll",
+            p_fractional_vco_multiplier="false",
+            p_reference_clock_frequency=_mhz(PLL_REFERENCE_HZ),
+            p_operation_mode="direct",
+            p_number_of_clocks=3,
+            p_output_clock_frequency0=_mhz(self.sync_hz), p_phase_shift0="0 ps",
+            p_duty_cycle0=50,
+            p_output_clock_frequency1=_mhz(self.vga_hz), p_phase_shift1="0 ps",
+            p_duty_cycle1=50,
+            p_output_clock_frequency2=_mhz(self.xclk_hz), p_phase_shift2="0 ps",
+            p_duty_cycle2=50,
+            p_pll_type="General", p_pll_subtype="General",
+            i_refclk=clk50_buf.i, i_rst=Const(0), i_fbclk=Const(0),
+            o_outclk=outclk, o_locked=locked, o_fboutclk=fboutclk)
+        clk_sync = Signal()
+        m.d.comb += clk_sync.eq(outclk[0])
+
+        cams = {"right": platform.request("ov5642", 0, dir="-"),
+                "left": platform.request("ov5642", 1, dir="-")}
+        clocks = {"vga": outclk[1], "xclk": outclk[2], "config": clk50_buf.i}
+        for side, cam in cams.items():
+            m.submodules[f"{side}_pclk_buf"] = pclk = io.Buffer("i", cam.pclk)
+            clocks[f"cam_{side}"] = pclk.i
+
+        # --- reset: KEY[0] (active low on the board, inverted by the resource) ----------
+        key = [platform.request("button", i, dir="-") for i in range(3)]
+        key_bufs = []
+        for i, pin in enumerate(key):
+            m.submodules[f"key{i}_buf"] = buf = io.Buffer("i", pin)
+            key_bufs.append(buf.i)
+        board_reset = Signal()
+        m.d.comb += board_reset.eq(key_bufs[0] | ~locked)
+        for name, clk in clocks.items():
+            m.domains += ClockDomain(name)
+            m.d.comb += ClockSignal(name).eq(clk)
+            m.submodules[f"{name}_reset_sync"] = ResetSynchronizer(board_reset, domain=name)
+
+        # --- board signals the core reads (_SOURCES) and drives (_SINKS) ----------------
+        sources, sinks = {}, {}
+        for name in ("cam_left", "cam_right", "config", "vga"):
+            sources[f"{name}_clk"] = ClockSignal(name)
+            sources[f"{name}_rst"] = ResetSignal(name)
+
+        for side, cam in cams.items():
+            cam_domain = f"cam_{side}"
+            for sig in ("vsync", "href", "data"):
+                # IOE registers in the camera's own clock: one cycle, same for all three
+                m.submodules[f"{side}_{sig}_buf"] = buf = io.FFBuffer(
+                    "i", getattr(cam, sig), i_domain=cam_domain)
+                sources[f"{side}__{sig}"] = buf.i
+            for sig in ("scl", "sda"):
+                # open drain: drive 0 when the core pulls low, else release
+                m.submodules[f"{side}_{sig}_buf"] = buf = io.Buffer("io", getattr(cam, sig))
+                m.d.comb += buf.o.eq(0)
+                sources[f"{side}_i2c__{sig}_i"] = buf.i
+                sinks[f"{side}_i2c__{sig}_oe"] = buf.oe
+            # XCLK forwarded through a DDR output register, in phase with the PLL output
+            m.submodules[f"{side}_xclk_buf"] = xclk = io.DDRBuffer("o", cam.xclk,
+                                                                   o_domain="xclk")
+            m.d.comb += [xclk.o[0].eq(1), xclk.o[1].eq(0)]
+            m.submodules[f"{side}_reset_n_buf"] = cam_rst = io.Buffer("o", cam.reset_n)
+            m.submodules[f"{side}_pwdn_buf"] = pwdn = io.Buffer("o", cam.pwdn)
+            m.d.comb += [cam_rst.o.eq(~ResetSignal("xclk")), pwdn.o.eq(0)]
+
+        uart = platform.request("uart", 0, dir="-")
+        m.submodules.uart_rx_buf = rx = io.Buffer("i", uart.rx)
+        m.submodules.uart_tx_buf = tx = io.Buffer("o", uart.tx)
+        m.d.comb += tx.o.eq(1)          # idle high if the core has no UART
+        sources["uart_rx"] = rx.i
+        sinks["uart_tx"] = tx.o
+
+        switches = []
+        for i in (0, 7, 8, 9):
+            pin = platform.request("switch", i, dir="-")
+            m.submodules[f"sw{i}_buf"] = buf = io.Buffer("i", pin)
+            switches.append(buf.i)
+        sources["capture"] = switches[0]
+        sources["stage_select"] = Cat(*switches[1:])       # SW[9:7]
+        sources["configure"] = key_bufs[1]
+        sources["pause"] = key_bufs[2]
+
+        leds = []
+        for i in range(10):
+            pin = platform.request("led", i, dir="-")
+            m.submodules[f"led{i}_buf"] = buf = io.Buffer("o", pin)
+            leds.append(buf.o)
+        sinks["leds"] = Cat(*leds)
+
+        vga = platform.request("vga", 0, dir="-")
+        for core_name, pin_name in (("r", "r"), ("g", "g"), ("b", "b"), ("hsync", "hs"),
+                                    ("vsync", "vs"), ("blank_n", "blank_n")):
+            # IOE registers in the pixel clock: the DAC sees all signals aligned
+            m.submodules[f"vga_{pin_name}_buf"] = buf = io.FFBuffer(
+                "o", getattr(vga, pin_name), o_domain="vga")
+            sinks[f"vga__{core_name}"] = buf.o
+        m.submodules.vga_sync_n_buf = sync_n = io.Buffer("o", vga.sync_n)
+        m.d.comb += sync_n.o.eq(0)      # no sync on green
+        # the DAC latches on the rising edge of its clock: send the inverted pixel clock
+        # so that edge falls in the middle of the data eye
+        m.submodules.vga_clk_buf = vga_clk = io.DDRBuffer("o", vga.clk, o_domain="vga")
+        m.d.comb += [vga_clk.o[0].eq(0), vga_clk.o[1].eq(1)]
+
+        # --- the Platform Designer system -----------------------------------------------
+        ddr = platform.request("hps_ddr3", 0, dir="-")
+        ports = {
+            "i_clk_clk": clk_sync,
+            "i_reset_reset_n": ~board_reset,
+            "o_memory_mem_a": ddr.a.io, "o_memory_mem_ba": ddr.ba.io,
+            "o_memory_mem_ck": ddr.ck_p.io, "o_memory_mem_ck_n": ddr.ck_n.io,
+            "o_memory_mem_cke": ddr.cke.io, "o_memory_mem_cs_n": ddr.cs_n.io,
+            "o_memory_mem_ras_n": ddr.ras_n.io, "o_memory_mem_cas_n": ddr.cas_n.io,
+            "o_memory_mem_we_n": ddr.we_n.io, "o_memory_mem_reset_n": ddr.reset_n.io,
+            "io_memory_mem_dq": ddr.dq.io, "io_memory_mem_dqs": ddr.dqs_p.io,
+            "io_memory_mem_dqs_n": ddr.dqs_n.io, "o_memory_mem_odt": ddr.odt.io,
+            "o_memory_mem_dm": ddr.dm.io, "i_memory_oct_rzqin": ddr.rzq.io,
+        }
+        for core_port, (sys_port, direction, width) in conduit_map(self.core_ports).items():
+            wire = Signal(width, name=f"core_{core_port}")
+            if direction == "input":
+                if core_port not in sources:
+                    raise ValueError(f"core input {core_port!r} has no board connection")
+                m.d.comb += wire.eq(sources[core_port])
+                ports[f"i_{sys_port}"] = wire
+            elif direction == "output":
+                if core_port not in sinks:
+                    raise ValueError(f"core output {core_port!r} has no board connection")
+                m.d.comb += sinks[core_port].eq(wire)
+                ports[f"o_{sys_port}"] = wire
+            else:
+                raise ValueError(f"core port {core_port!r}: inout ports are not supported")
+        m.submodules.soc = Instance(SYSTEM_NAME, **ports)
+        return m

@@ -1,0 +1,211 @@
+# amaranth: UnusedElaboratable=no
+"""The whole FPGA side of the DE1-SoC system without pins or PLL (thesis
+chapters 5-8): what the board top wraps and what the end-to-end demo simulates.
+
+Blocks, by clock domain::
+
+    config     (50 MHz)       Ov5642Config        x2  §5.1   I2C register table per camera
+    cam_left / cam_right      GesturePipeline's capture   §5.2   camera PCLK
+    sync       (100 MHz)      GesturePipeline             ch. 5-7 pixels to (x, y, flag)
+                              FifoSlave                   §7.4.1 Avalon-MM, bridge offset 0x000
+                              UartSlave                   §8.5.1 Avalon-MM, bridge offset 0x100
+                              FrameBuffer (write side)    Table 22 stage-select video
+    vga        (pixel clock)  FrameBuffer (read side)     640x480 at 60 Hz
+
+Board functions (our Table 22; the thesis gives SW[9:7] and LEDR[4]):
+
+=========  ==========================================================
+input      ``stage_select`` (SW[9:7]) VGA stage, :data:`VIDEO_STAGES`;
+           ``capture`` (SW[0]) cameras captured; ``pause`` (KEY[2]
+           held) capture paused; ``configure`` (KEY[1]) rewrite both
+           cameras' registers. All asynchronous, synchronised here.
+``leds``   [0] left camera configured, [1] right camera configured,
+           [2] configuration error, [3] FIFO-FULL, [4] gesture detected,
+           [5] GO (the HPS application runs), [6] synchroniser fault
+           seen, [9:7] frames completed, bits 5:3 (a heartbeat).
+=========  ==========================================================
+"""
+from __future__ import annotations
+
+from amaranth.hdl import Cat, ClockDomain, DomainRenamer, Module, Shape, Signal
+from amaranth.lib import cdc, wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl._util import check_geometry
+from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
+from sim.model.pipeline import PipelineParams
+
+from .fifo_slave import FifoSlave
+from .frame_buffer import FrameBuffer
+from .ov5642_config import Ov5642Config
+from .uart import UartSlave
+from .vga_timing import VGA_640x480_60, VgaMode
+
+__all__ = ["StereogestCore", "CameraPins", "I2cPins", "CORE_NAME", "CLOCK_DOMAINS",
+           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "emit_core_verilog", "VIDEO_STAGES"]
+
+#: Verilog module name of the core (the ``_hw.tcl`` component wraps it).
+CORE_NAME = "stereogest_core"
+#: Clock domains besides ``sync`` (ports ``<name>_clk`` and ``<name>_rst``).
+CLOCK_DOMAINS = ("cam_left", "cam_right", "config", "vga")
+#: Bits per pixel of the VGA frame buffer (150 M10K blocks at 640 x 480).
+FRAME_BUFFER_BITS = 4
+#: Byte offsets of the two Avalon-MM slaves on the lightweight bridge.
+FIFO_BASE = 0x000
+UART_BASE = 0x100
+
+#: Camera pins as the camera drives them (the core takes ``In(CameraPins)``).
+CameraPins = wiring.Signature({"vsync": Out(1), "href": Out(1), "data": Out(8)})
+#: Open-drain I2C pins: ``*_oe`` pulls the line low, ``*_i`` is the line level.
+I2cPins = wiring.Signature({"scl_oe": Out(1), "sda_oe": Out(1),
+                            "scl_i": In(1), "sda_i": In(1)})
+
+
+def _check_frequency(name, value, low, high):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not low <= value <= high:
+        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
+    return float(value)
+
+
+class StereogestCore(wiring.Component):
+    """Cameras to Avalon registers, plus camera set-up, robot UART and VGA view.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size (thesis 640 x 480); the cameras' registers set 640 x 480.
+    params : sim.model.pipeline.PipelineParams
+        Algorithm parameters (thesis run-time values by default).
+    sync_freq : float
+        Pipeline and bus clock in Hz (thesis 100 MHz); sets the UART divisor.
+    config_freq : float
+        Clock of the ``config`` domain in Hz (the board's 50 MHz).
+    vga_mode : soc.vga_timing.VgaMode
+        Raster of the VGA output (640 x 480 at 60 Hz).
+    fifo_depth : int
+        Entries of each centroid FIFO (``sw_hps.fifo.FIFO_DEPTH``).
+    sync_fifo_depth : int
+        Words of each camera FIFO of the stereo synchroniser.
+    uart_baudrate : int
+        Robot link (RN-42), 115200 8N1.
+    frame_buffer_bits : int
+        Bits kept per pixel by the VGA frame buffer.
+    config_table : sequence of (address, value, delay_ms), optional
+        OV5642 register writes (default: the vendored 988-row table).
+
+    Ports
+    -----
+    fifo, uart : ``In(AvalonSlaveSignature)``, the two slaves (sync domain).
+    left, right : ``In(CameraPins)`` in ``cam_left`` / ``cam_right``.
+    left_i2c, right_i2c : ``Out(I2cPins)`` in ``config``.
+    uart_tx, uart_rx : the robot link.
+    vga : the VGA DAC signals (``vga`` domain).
+    stage_select, capture, pause, configure, leds : board functions (above).
+    cam_left_clk, cam_left_rst, ... : clock and reset of every domain but
+        ``sync`` (whose are ``clk`` and ``rst`` in the Verilog).
+    """
+
+    def __init__(self, width: int = 640, height: int = 480,
+                 params: PipelineParams = PipelineParams(), *, sync_freq: float = 100e6,
+                 config_freq: float = 50e6, vga_mode: VgaMode = VGA_640x480_60,
+                 fifo_depth: int = 512, sync_fifo_depth: int = 2048,
+                 uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
+                 config_table=None):
+        width, height = check_geometry(width, height)
+        self.sync_freq = _check_frequency("sync_freq", sync_freq, 1e6, 500e6)
+        self.config_freq = _check_frequency("config_freq", config_freq, 1e6, 500e6)
+        if not isinstance(vga_mode, VgaMode):
+            raise ValueError(f"vga_mode must be a VgaMode, got {type(vga_mode).__name__}")
+        self.width, self.height, self.params = width, height, params
+        self.vga_mode = vga_mode
+        self.pipeline = GesturePipeline(width, height, params, fifo_depth=sync_fifo_depth)
+        record = self.pipeline.o_stream.payload.shape()
+        data_bits = Shape.cast(record["x"].shape).width
+        self.fifo_slave = FifoSlave(data_bits=data_bits, depth=fifo_depth)
+        self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
+        self.config = [Ov5642Config(clk_freq=self.config_freq, table=config_table)
+                       for _ in range(2)]
+        self.frame_buffer = FrameBuffer(width, height, vga_mode, pixel_bits=frame_buffer_bits)
+        domain_ports = {}
+        for name in CLOCK_DOMAINS:
+            domain_ports[f"{name}_clk"] = In(1)
+            domain_ports[f"{name}_rst"] = In(1)
+        super().__init__({
+            **domain_ports,
+            "fifo": self.fifo_slave.signature.members["bus"],
+            "uart": self.uart_slave.signature.members["bus"],
+            "left": In(CameraPins), "right": In(CameraPins),
+            "left_i2c": Out(I2cPins), "right_i2c": Out(I2cPins),
+            "uart_tx": Out(1, init=1), "uart_rx": In(1, init=1),
+            "vga": self.frame_buffer.signature.members["vga"],
+            "stage_select": In(3), "capture": In(1), "pause": In(1), "configure": In(1),
+            "leds": Out(10),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        for name in CLOCK_DOMAINS:
+            cd = ClockDomain(name, local=True)
+            m.domains += cd
+            m.d.comb += [cd.clk.eq(getattr(self, f"{name}_clk")),
+                         cd.rst.eq(getattr(self, f"{name}_rst"))]
+
+        # --- the pipeline: camera pins to one record per frame ---------------------------
+        m.submodules.pipeline = pipe = self.pipeline
+        wiring.connect(m, wiring.flipped(self.left), pipe.left)
+        wiring.connect(m, wiring.flipped(self.right), pipe.right)
+        # (CameraCapture synchronises start and pause into each camera domain)
+        m.d.comb += [pipe.start.eq(self.capture), pipe.pause.eq(self.pause)]
+        stage = Signal(3)
+        m.submodules.stage_sync = cdc.FFSynchronizer(self.stage_select, stage)
+        m.d.comb += pipe.video_select.eq(stage)
+
+        # --- HPS side: centroid FIFO and robot UART ---------------------------------------
+        m.submodules.fifo_slave = fifo = self.fifo_slave
+        wiring.connect(m, wiring.flipped(self.fifo), fifo.bus)
+        rec = pipe.o_stream
+        m.d.comb += [fifo.i_stream.valid.eq(rec.valid),
+                     fifo.i_stream.payload.x.eq(rec.payload.x),
+                     fifo.i_stream.payload.y.eq(rec.payload.y),
+                     fifo.i_stream.payload.flag.eq(rec.payload.flag)]
+        m.submodules.uart_slave = uart = self.uart_slave
+        wiring.connect(m, wiring.flipped(self.uart), uart.bus)
+        m.d.comb += [self.uart_tx.eq(uart.tx), uart.rx.eq(self.uart_rx)]
+
+        # --- camera configuration (config domain), one I2C master per camera -------------
+        configure = Signal()
+        m.submodules.configure_sync = cdc.FFSynchronizer(self.configure, configure,
+                                                         o_domain="config")
+        status = []
+        for side, master in zip(("left", "right"), self.config):
+            m.submodules[f"config_{side}"] = cfg = DomainRenamer("config")(master)
+            pins = getattr(self, f"{side}_i2c")
+            m.d.comb += [cfg.start.eq(configure), pins.scl_oe.eq(cfg.scl_oe),
+                         pins.sda_oe.eq(cfg.sda_oe), cfg.scl_i.eq(pins.scl_i),
+                         cfg.sda_i.eq(pins.sda_i)]
+            done, error = Signal(name=f"{side}_configured"), Signal(name=f"{side}_config_error")
+            m.submodules[f"{side}_done_sync"] = cdc.FFSynchronizer(cfg.done, done)
+            m.submodules[f"{side}_error_sync"] = cdc.FFSynchronizer(cfg.error, error)
+            status.append((done, error))
+
+        # --- VGA debug view (Table 22) ----------------------------------------------------
+        m.submodules.frame_buffer = fb = self.frame_buffer
+        wiring.connect(m, pipe.o_video, fb.i_stream)
+        wiring.connect(m, wiring.flipped(self.vga), fb.vga)
+
+        # --- LEDs ----------------------------------------------------------------------
+        fault_seen = Signal()
+        with m.If(pipe.faults != 0):
+            m.d.sync += fault_seen.eq(1)
+        (left_done, left_error), (right_done, right_error) = status
+        m.d.comb += self.leds.eq(Cat(left_done, right_done, left_error | right_error,
+                                     fifo.full, fifo.gesture, fifo.go, fault_seen,
+                                     pipe.frames[3:6]))
+        return m
+
+
+def emit_core_verilog(core: StereogestCore) -> str:
+    """Verilog text of the core as module :data:`CORE_NAME`."""
+    from amaranth.back import verilog
+    return verilog.convert(core, name=CORE_NAME, emit_src=False)

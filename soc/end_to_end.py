@@ -1,0 +1,207 @@
+# amaranth: UnusedElaboratable=no
+"""End to end, cameras to robot command: a stereo clip through the Verilated
+FPGA side (:mod:`soc.system_sim`) and the unmodified board application, checked
+against the golden model on the way (the main job, ``stereogest demo``).
+
+What is compared with what:
+
+* the (x, y) pairs the application pops from the hardware FIFO against the
+  golden model's smoothed centroids of the flagged frames, word for word;
+* the bytes on the UART's TX pin, decoded by an independent 8N1 receiver
+  (:func:`soc.system_sim.decode_uart`), against the telegram the application
+  sent;
+* one whole VGA frame of the debug view, taken after the last camera frame,
+  against the golden model's picture of the selected stage for that frame.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim.model.pipeline import FrameStages, PipelineParams, Trajectory, track
+
+from .system_sim import SystemBus, SystemClocks, VerilatorSystem, decode_uart
+
+__all__ = ["EndToEndResult", "frames_to_still", "hold_still", "stage_picture", "run_end_to_end",
+           "clip_end_to_end"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class EndToEndResult:
+    """What one end-to-end run saw (see the module docstring)."""
+    recognised: str | None            #: last recognised gesture (None: nothing)
+    telegram: bytes | None            #: the application's telegram for it
+    uart_bytes: bytes                 #: bytes decoded from the UART TX pin
+    results: list = field(default_factory=list)   #: every GestureResult, as dicts
+    popped: list = field(default_factory=list)    #: raw (x, y) words read from the FIFO
+    expected: list = field(default_factory=list)  #: the model's smoothed flagged points
+    vga: np.ndarray | None = None     #: the captured VGA frame (active area)
+    vga_expected: np.ndarray | None = None
+    leds: int = 0
+    cycles: int = 0
+    seconds: float = 0.0
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def fifo_matches_model(self) -> bool:
+        return self.popped == self.expected
+
+    @property
+    def vga_mismatches(self) -> int:
+        if self.vga is None or self.vga_expected is None:
+            return -1
+        return int(np.count_nonzero(self.vga != self.vga_expected))
+
+    @property
+    def uart_matches_telegram(self) -> bool:
+        return self.uart_bytes == (self.telegram or b"")
+
+
+def frames_to_still(trajectory: Trajectory, params: PipelineParams, limit: int = 256) -> int:
+    """How many repeats of the clip's last frame (the hand held still) end a
+    gesture still flagged at the end of the clip: the hardware sees no more
+    frames once the cameras stop, so its spotting flag would stay set.
+    0 if the flag is already down."""
+    if not len(trajectory.flag) or not trajectory.flag[-1]:
+        return 0
+    cents, areas = trajectory.centroid, trajectory.area
+    for extra in range(1, limit + 1):
+        longer = track(np.concatenate([cents, np.repeat(cents[-1:], extra, axis=0)]),
+                       np.concatenate([areas, np.repeat(areas[-1:], extra)]), params)
+        if not longer.flag[-1]:
+            return extra
+    raise ValueError(f"the spotting flag is still set after {limit} still frames")
+
+
+def hold_still(left_frames, right_frames, trajectory: Trajectory, params: PipelineParams):
+    """The clip with its last frame repeated :func:`frames_to_still` times, and
+    the golden model's trajectory of it (repeated frames give the same
+    centroid, so only the tracking is recomputed). Returns (left, right,
+    trajectory, repeats)."""
+    extra = frames_to_still(trajectory, params)
+    if not extra:
+        return left_frames, right_frames, trajectory, 0
+    left = np.concatenate([left_frames, np.repeat(left_frames[-1:], extra, axis=0)])
+    right = np.concatenate([right_frames, np.repeat(right_frames[-1:], extra, axis=0)])
+    longer = track(np.concatenate([trajectory.centroid,
+                                   np.repeat(trajectory.centroid[-1:], extra, axis=0)]),
+                   np.concatenate([trajectory.area, np.repeat(trajectory.area[-1:], extra)]),
+                   params)
+    return left, right, longer, extra
+
+
+def stage_picture(stages: FrameStages, stage: str, disparity_bits: int) -> np.ndarray:
+    """The 8-bit picture the pipeline's ``o_video`` carries for ``stage``
+    (hdl.gesture_pipeline.VIDEO_STAGES): masks as 0/255, disparity shifted to 8 bits."""
+    pictures = {
+        "right": stages.right, "left": stages.left,
+        "disparity": (stages.disparity.astype(np.uint16) << (8 - disparity_bits)).astype(np.uint8),
+        "skin": stages.skin.astype(np.uint8) * 255, "band": stages.band.astype(np.uint8) * 255,
+        "opening": stages.opened.astype(np.uint8) * 255,
+    }
+    return pictures[stage]
+
+
+def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
+                   last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
+                   *, stage: str = "opening", clocks: SystemClocks = SystemClocks(),
+                   poll_interval: float = 0.005, progress=None) -> EndToEndResult:
+    """Play a clip into the Verilated core and run the board application on it.
+
+    Parameters
+    ----------
+    left_frames, right_frames : (F, H, 2W) uint8
+        The camera frames (already held still at the end, see :func:`frames_to_still`).
+    models : sw_hps.hmm.GestureModels
+    trajectory : Trajectory
+        The golden model's trajectory of the same frames.
+    last_stages : FrameStages or None
+        The golden model's stages of the last frame (for the VGA check).
+    stage : str
+        The VGA stage (SW[9:7]), one of ``hdl.gesture_pipeline.VIDEO_STAGES``.
+    progress : callable, optional
+        ``progress(text)`` for progress lines.
+    """
+    from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
+    from sim.model.vga import vga_frame
+    from sw_hps.app import GestureApp, State
+    from sw_hps.fifo import CTRL_FIFO_DATA, CTRL_NO_GESTURE, FifoPeripheral
+    from sw_hps.robot import UartLink
+
+    from .core import FRAME_BUFFER_BITS, UART_BASE
+    from .vga_timing import VGA_640x480_60
+
+    if stage not in VIDEO_STAGES:
+        raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
+    frames = len(left_frames)
+    height, width = np.shape(left_frames)[1], np.shape(left_frames)[2] // 2
+    pipeline = GesturePipeline(width, height, params)  # for its timing figures only
+    drain = pipeline.record_cycles + 8 * width
+    expected = [(int(x), int(y)) for (x, y), f in zip(trajectory.smoothed, trajectory.flag) if f]
+    start = time.perf_counter()
+    with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
+                         stage=VIDEO_STAGES.index(stage),
+                         log=progress) as system:
+        bus = SystemBus(system)
+        app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
+                         sleep=bus.sleep, poll_interval=poll_interval)
+        done_at = [None]
+        shown = [0]
+
+        def finished() -> bool:
+            frame = system.cycles // pipeline.frame_cycles
+            if progress is not None and frame >= shown[0] + 10 and not system.cameras_done:
+                shown[0] = frame
+                progress(f"  hardware: about frame {min(frame, frames)}/{frames}, "
+                         f"{system.cycles:,} cycles, {time.perf_counter() - start:.0f} s")
+            if not system.cameras_done:
+                return False
+            if done_at[0] is None:
+                done_at[0] = system.cycles
+            idle = (bus.last_control & CTRL_NO_GESTURE) and not (bus.last_control & CTRL_FIFO_DATA)
+            return (system.cycles - done_at[0] >= drain and app.state is State.WAIT
+                    and bool(idle))
+
+        results = app.run(max_iterations=200 * frames + 10_000, until=finished)
+        edges = system.uart_edges()
+        vga = system.vga_frame()
+        stats = system.close()
+    seconds = time.perf_counter() - start
+    recognised = [r for r in results if r.recognised]
+    last = recognised[-1] if recognised else None
+    vga_expected = None
+    if last_stages is not None:
+        mode = VGA_640x480_60
+        picture = stage_picture(last_stages, stage, pipeline.disparity_bits)
+        raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS)
+        active = raster[..., 5].astype(bool)
+        vga_expected = raster[..., 0][active].reshape(mode.v_active, mode.h_active)
+    return EndToEndResult(
+        recognised=last.class_name if last else None,
+        telegram=last.telegram if last else None,
+        uart_bytes=decode_uart(edges, 115200),
+        results=[r.to_dict() for r in results], popped=bus.popped, expected=expected,
+        vga=vga, vga_expected=vga_expected, leds=int(stats.get("leds", 0)),
+        cycles=int(stats.get("cycles", 0)), seconds=seconds, stats=stats)
+
+
+
+def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
+                    keep=(), threads=None, model_progress=None, progress=None):
+    """A rendered clip end to end: the golden model over every frame (keeping the
+    stages of the frames in ``keep`` and of the last one), the hold-still
+    extension, then :func:`run_end_to_end`. Returns (model trajectory of the
+    clip as played, kept stages, repeats of the last frame, EndToEndResult)."""
+    from sim.model.pipeline import run_clip
+    chosen = set(keep) | {clip.frames - 1}
+    trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
+                                progress=model_progress, threads=threads)
+    left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
+    result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
+                            stage=stage, progress=progress)
+    return played, kept, extra, result

@@ -1,0 +1,373 @@
+# amaranth: UnusedElaboratable=no
+"""Write the Quartus/Platform Designer bundle of the recogniser for the DE1-SoC
+(``stereogest generate --out DIR``).
+
+The bundle holds:
+
+==============================  ===================================================
+``stereogest.v``                board top (:class:`soc.board_top.BoardTop`), Amaranth
+``stereogest.qsf`` / ``.qpf``   Quartus project: device, every pin, the system's QIP
+``stereogest.sdc``              clocks: 50 MHz, both camera PCLKs, PLL outputs derived
+``stereogest.srf``              suppressed Quartus messages (Amaranth's list)
+``stereogest_core.v``           the core (:class:`soc.core.StereogestCore`)
+``stereogest_core_hw.tcl``      its Platform Designer component
+``soc_system.tcl``              qsys-script building ``soc_system.qsys`` (HPS + core)
+``quartus_build.sh``            the whole Quartus flow, in order
+``README.md``                   the steps, the address map and the board functions
+``stereogest-bundle.json``      what generated the bundle (marks it as one)
+==============================  ===================================================
+
+Nothing is written in place: the bundle is built in a temporary directory
+beside ``DIR`` and renamed, so an error leaves no half-written ``DIR``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfaces, hw_tcl, \
+    system_tcl, verilog_ports
+
+__all__ = ["generate", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
+           "is_bundle"]
+
+#: Quartus project (and top-level module) name.
+PROJECT = "stereogest"
+CORE_FILE = "stereogest_core.v"
+HW_TCL = "stereogest_core_hw.tcl"
+SYSTEM_TCL = "soc_system.tcl"
+BUILD_SCRIPT = "quartus_build.sh"
+#: File that marks a directory as a stereogest bundle.
+MARKER = "stereogest-bundle.json"
+#: Physical base of the lightweight HPS-to-FPGA bridge on the Cyclone V HPS.
+LW_BRIDGE_BASE = 0xFF200000
+#: Amaranth's build scripts (they run only quartus_map..sta, not the whole flow) and its
+#: debug Verilog (empty: debug Verilog generation is off).
+_AMARANTH_SCRIPTS = ("build_stereogest.sh", "build_stereogest.bat", "build_stereogest.json",
+                     "stereogest.debug.v")
+
+
+@dataclasses.dataclass(frozen=True)
+class BundleInfo:
+    """What :func:`generate` wrote.
+
+    Attributes
+    ----------
+    out_dir : pathlib.Path
+        The bundle directory.
+    files : tuple of str
+        File names in it.
+    core_ports : tuple of (name, direction, width)
+        The core's Verilog ports.
+    seconds : float
+        Wall time of the generation.
+    """
+
+    out_dir: Path
+    files: tuple
+    core_ports: tuple
+    seconds: float
+
+
+def is_bundle(path) -> bool:
+    """True if ``path`` is a directory written by :func:`generate`."""
+    marker = Path(path) / MARKER
+    try:
+        return json.loads(marker.read_text()).get("generator") == "stereogest generate"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _check_out_dir(out_dir) -> Path:
+    if not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir):
+        raise ValueError(f"out_dir must be a path, got {out_dir!r}")
+    out = Path(out_dir)
+    if out.exists() or out.is_symlink():
+        if not out.is_dir() or out.is_symlink():
+            raise ValueError(f"out_dir {str(out)!r} exists and is not a directory "
+                             "(or is a symlink)")
+        if any(out.iterdir()) and not is_bundle(out):
+            raise ValueError(f"out_dir {str(out)!r} is not empty and not a stereogest bundle "
+                             f"(no {MARKER}); choose a new or empty directory")
+    return out
+
+
+def _frequency(name, value, low, high) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not low <= value <= high:
+        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
+    return float(value)
+
+
+def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = 100e6,
+             vga_hz: float = 25e6, xclk_hz: float = 24e6, progress=None) -> BundleInfo:
+    """Write the Quartus project and Platform Designer pieces into ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str or path
+        New, empty, or a previous bundle (replaced as a whole); parents are
+        created.
+    width, height : int
+        Frame size of the pipeline (the cameras' registers set 640 x 480).
+    sync_hz, vga_hz, xclk_hz : float
+        PLL outputs: pipeline/bus clock, VGA pixel clock, camera XCLK
+        (defaults 100, 25 and 24 MHz).
+    progress : callable, optional
+        Called with one-line progress messages.
+
+    Returns
+    -------
+    BundleInfo
+
+    Raises
+    ------
+    ValueError
+        For a bad parameter (naming it) or an ``out_dir`` that exists and is
+        neither empty nor a previous bundle. Nothing is written then.
+    """
+    start = time.perf_counter()
+    say = progress or (lambda message: None)
+    out = _check_out_dir(out_dir)
+    sync_hz = _frequency("sync_hz", sync_hz, 10e6, 200e6)
+    vga_hz = _frequency("vga_hz", vga_hz, 10e6, 100e6)
+    xclk_hz = _frequency("xclk_hz", xclk_hz, 6e6, 27e6)
+
+    from boards.de1_soc import StereogestDE1SoCPlatform
+
+    from .board_top import BoardTop
+    from .core import CORE_NAME, FIFO_BASE, UART_BASE, StereogestCore, emit_core_verilog
+    from .vga_timing import VGA_640x480_60
+
+    # the raster is the 640x480 one; the pixel clock is what the PLL makes
+    vga_mode = dataclasses.replace(VGA_640x480_60, pixel_clock=int(round(vga_hz)))
+    core = StereogestCore(width, height, sync_freq=sync_hz, vga_mode=vga_mode)
+    say(f"elaborating the core ({width}x{height}) ...")
+    core_v = emit_core_verilog(core)
+    ports = verilog_ports(core_v, CORE_NAME)
+    bases = {"fifo": FIFO_BASE, "uart": UART_BASE}
+    hw = hw_tcl(ports, module=CORE_NAME, verilog_file=CORE_FILE)
+    system = system_tcl(ports, bases, clock_hz=sync_hz, core_module=CORE_NAME)
+
+    say("elaborating the board top ...")
+    top = BoardTop(ports, sync_hz=sync_hz, vga_hz=vga_hz, xclk_hz=xclk_hz)
+    platform = StereogestDE1SoCPlatform()
+    plan = platform.build(top, name=PROJECT, do_build=False, add_settings=_qsf_settings(),
+                          add_constraints=_sdc_constraints(sync_hz, vga_hz, xclk_hz))
+    for name in _AMARANTH_SCRIPTS:
+        plan.files.pop(name, None)
+
+    files = dict(plan.files)
+    files[CORE_FILE] = core_v
+    files[HW_TCL] = hw
+    files[SYSTEM_TCL] = system
+    files[f"{PROJECT}.qpf"] = _qpf()
+    files[BUILD_SCRIPT] = _build_script()
+    refresh = vga_hz / (vga_mode.h_total * vga_mode.v_total)
+    files["README.md"] = _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports,
+                                 bases)
+    files[MARKER] = json.dumps({
+        "generator": "stereogest generate", "width": width, "height": height,
+        "sync_hz": sync_hz, "vga_hz": vga_hz, "xclk_hz": xclk_hz,
+        "device": DEVICE, "files": sorted([*files, MARKER]),
+    }, indent=2) + "\n"
+
+    say(f"writing {out} ...")
+    out_abs = out.resolve()
+    out_abs.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_abs.name}.", dir=out_abs.parent))
+    try:
+        for name, content in files.items():
+            path = tmp / name
+            if isinstance(content, str):
+                path.write_text(content)
+            else:
+                path.write_bytes(content)
+        tmp.chmod(0o755)            # mkdtemp makes it private
+        (tmp / BUILD_SCRIPT).chmod(0o755)
+        _replace(tmp, out_abs)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return BundleInfo(out, tuple(sorted(files)), tuple(ports), time.perf_counter() - start)
+
+
+def _replace(new: Path, out: Path) -> None:
+    """Rename ``new`` to ``out``; an existing ``out`` (empty, or a bundle) is
+    moved aside first and removed after."""
+    if not out.exists():
+        new.rename(out)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+    old.rmdir()
+    out.rename(old)
+    try:
+        new.rename(out)
+    except BaseException:
+        old.rename(out)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _qsf_settings() -> str:
+    return "\n".join([
+        'set_global_assignment -name FAMILY "Cyclone V"',
+        f"set_global_assignment -name SDC_FILE {PROJECT}.sdc",
+        "# the HPS system from soc_system.tcl (qsys-generate writes the QIP); the QIP",
+        f"# also brings in {CORE_FILE}, the core, through its _hw.tcl fileset, so the",
+        "# core is not listed here again (a second copy would define the module twice)",
+        f"set_global_assignment -name QIP_FILE {SYSTEM_NAME}/synthesis/{SYSTEM_NAME}.qip",
+        "# HPS DDR3 termination and I/O settings come from the script qsys-generate",
+        f"# writes: quartus_sta -t {SYSTEM_NAME}/synthesis/submodules/"
+        f"hps_sdram_p0_pin_assignments.tcl {PROJECT}",
+        "set_global_assignment -name OPTIMIZE_MULTI_CORNER_TIMING ON",
+        "",
+    ])
+
+
+def _sdc_constraints(sync_hz, vga_hz, xclk_hz) -> str:
+    lines = [
+        f"# PLL outputs ({sync_hz / 1e6:g} MHz pipeline, {vga_hz / 1e6:g} MHz VGA, "
+        f"{xclk_hz / 1e6:g} MHz camera XCLK)",
+        "# from the 50 MHz clock above",
+        "derive_pll_clocks",
+        "derive_clock_uncertainty",
+        "# each camera's PCLK is unrelated to the board oscillator and to the other",
+        "# camera: the core crosses those domains through synchronisers and FIFOs",
+    ]
+    for number in (0, 1):
+        name = f"ov5642_{number}__pclk__io"
+        lines.append(f"set_clock_groups -asynchronous -group [get_clocks {{{name}}}]")
+    return "\n".join(lines) + "\n"
+
+
+def _qpf() -> str:
+    return "\n".join([
+        "# Quartus project of the stereogest bundle (written by `stereogest generate`)",
+        'QUARTUS_VERSION = "16.1"',
+        f'PROJECT_REVISION = "{PROJECT}"',
+        "",
+    ])
+
+
+def _build_script() -> str:
+    pins = f"{SYSTEM_NAME}/synthesis/submodules/hps_sdram_p0_pin_assignments.tcl"
+    return f"""#!/bin/sh
+# The whole Quartus flow of the stereogest bundle, in order (see README.md).
+# Written by `stereogest generate`. Needs Quartus Prime (Lite or Standard, with
+# Cyclone V support) and its Platform Designer tools on PATH.
+set -e
+cd "$(dirname "$0")"
+for tool in qsys-script qsys-generate quartus_map quartus_sta quartus_fit quartus_asm; do
+    command -v "$tool" >/dev/null 2>&1 || {{
+        echo "$tool not found: put Quartus's bin directories on PATH" >&2; exit 1; }}
+done
+here="$(pwd)"
+qsys-script --script={SYSTEM_TCL} --search-path="$here,\\$"
+qsys-generate {SYSTEM_NAME}.qsys --synthesis=VERILOG --output-directory={SYSTEM_NAME} \\
+    --part={DEVICE} --search-path="$here,\\$"
+quartus_map --read_settings_files=on --write_settings_files=off {PROJECT} -c {PROJECT}
+quartus_sta -t {pins} {PROJECT}
+# synthesis again, now with the HPS DDR3 pin settings in the project
+quartus_map --read_settings_files=on --write_settings_files=off {PROJECT} -c {PROJECT}
+quartus_fit --read_settings_files=on --write_settings_files=off {PROJECT} -c {PROJECT}
+quartus_asm {PROJECT} -c {PROJECT}
+quartus_sta {PROJECT} -c {PROJECT}
+echo "done: {PROJECT}.sof and {PROJECT}.rbf"
+"""
+
+
+def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases) -> str:
+    conduits = [i for i in core_interfaces(ports) if i.kind == "conduit"]
+    slaves = [i for i in core_interfaces(ports) if i.kind == "avalon"]
+    slave_rows = "\n".join(
+        f"| `{s.name}` | {bases[s.name]:#06x} | {LW_BRIDGE_BASE + bases[s.name]:#010x} | "
+        f"{4 << dict((r, w) for _, r, _, w in s.ports)['address']:#x} |" for s in slaves)
+    conduit_list = ", ".join(f"`core_{c.name}`" for c in conduits)
+    pins = f"{SYSTEM_NAME}/synthesis/submodules/hps_sdram_p0_pin_assignments.tcl"
+    return f"""# stereogest: Quartus bundle for the DE1-SoC
+
+Written by `stereogest generate` ({width}x{height} pipeline). Device {DEVICE}
+(Cyclone V SE, DE1-SoC). Regenerate with the same command; it replaces this
+directory as a whole (Quartus outputs in it included).
+
+## Files
+
+| file | what |
+|---|---|
+| `{PROJECT}.v` | board top (Amaranth): pins, PLL, resets, the `{SYSTEM_NAME}` instance |
+| `{PROJECT}.qsf`, `{PROJECT}.qpf` | Quartus project: device, pin of every top-level port, the system's QIP |
+| `{PROJECT}.sdc` | clocks: 50 MHz oscillator, both camera PCLKs, PLL outputs derived |
+| `{CORE_FILE}` | the core: pipeline, camera configuration, FIFO and UART slaves, VGA view |
+| `{HW_TCL}` | Platform Designer component of the core |
+| `{SYSTEM_TCL}` | qsys-script that builds `{SYSTEM_NAME}.qsys` (HPS + core) |
+| `{BUILD_SCRIPT}` | the steps below in one script |
+
+## Clocks
+
+| clock | source | frequency |
+|---|---|---|
+| pipeline and bus (core `clk`, lightweight bridge) | PLL output 0 | {sync_hz / 1e6:g} MHz |
+| VGA pixel clock (640x480 raster, {refresh:.1f} Hz frames) | PLL output 1 | {vga_hz / 1e6:g} MHz |
+| camera XCLK (both cameras) | PLL output 2 | {xclk_hz / 1e6:g} MHz |
+| camera configuration (I2C) | board oscillator CLOCK_50 | 50 MHz |
+| left / right camera | each camera's PCLK | set by the camera |
+
+## Address map (lightweight HPS-to-FPGA bridge)
+
+| slave | bridge offset | HPS physical address | span (bytes) |
+|---|---|---|---|
+{slave_rows}
+
+## Quartus steps
+
+With Quartus Prime (Lite or Standard, 16.1 or later, Cyclone V support) on PATH,
+in this directory (`sh {BUILD_SCRIPT}` runs steps 1-4):
+
+1. Build the HPS system: `qsys-script --script={SYSTEM_TCL} --search-path="$PWD,\\$"`
+   writes `{SYSTEM_NAME}.qsys` (the search path lets it find `{HW_TCL}`).
+2. Generate it: `qsys-generate {SYSTEM_NAME}.qsys --synthesis=VERILOG
+   --output-directory={SYSTEM_NAME} --part={DEVICE} --search-path="$PWD,\\$"`; the
+   `.qsf` already includes `{SYSTEM_NAME}/synthesis/{SYSTEM_NAME}.qip`.
+3. Analysis and synthesis, then the HPS DDR3 pin settings (termination, I/O
+   standards) from the generated script:
+   `quartus_map {PROJECT} -c {PROJECT}` then
+   `quartus_sta -t {pins} {PROJECT}`,
+   then `quartus_map` once more so the project is compiled with those settings.
+4. Fit, assemble, time: `quartus_fit {PROJECT} -c {PROJECT}`,
+   `quartus_asm {PROJECT} -c {PROJECT}`, `quartus_sta {PROJECT} -c {PROJECT}`.
+   Out come `{PROJECT}.sof` and `{PROJECT}.rbf`.
+5. Program over the USB-Blaster (the FPGA is the second device of the JTAG
+   chain, after the HPS): `quartus_pgm -m jtag -o "p;{PROJECT}.sof@2"`.
+   Or load `{PROJECT}.rbf` from the board's Linux through its FPGA manager.
+6. On the board's Linux, release the lightweight bridge if the boot did not
+   (e.g. U-Boot `bridge enable`), then start the application as root:
+
+       python3 -m sw_hps --model model.json --bus devmem --robot uart
+
+   (`make hps-bundle` in the repository packs `sw_hps` with a model file.)
+
+The HPS here has only its DDR3 and the lightweight bridge: boot the board's
+Linux from an SD card image with its own preloader (Terasic's DE1-SoC image),
+which sets up the HPS peripherals.
+
+## Board functions
+
+KEY[0] reset, KEY[1] reconfigure the cameras, KEY[2] (held) pause, SW[0]
+capture, SW[9:7] VGA stage (0 right, 1 left, 2 disparity, 3 skin, 4 band,
+5 opening); LEDR[0]/[1] cameras configured, [2] configuration error, [3]
+FIFO-FULL, [4] gesture detected, [5] GO, [6] synchroniser fault, [9:7]
+heartbeat. Camera header pins: `boards/README.md` in the repository.
+
+## Platform Designer system
+
+`clk_0` (clock source, {sync_hz / 1e6:g} MHz, exported `clk`/`reset`), `hps_0`
+(`altera_hps`: lightweight bridge on, other bridges off, DDR3 exported as
+`memory`), `{CORE_INSTANCE}` with its clock and reset from `clk_0`, its
+slaves on `hps_0.h2f_lw_axi_master` and its conduits exported as {conduit_list}.
+"""

@@ -1,0 +1,325 @@
+# amaranth: UnusedElaboratable=no
+"""The whole FPGA side (:class:`soc.core.StereogestCore`) under Verilator, with
+the board application on its registers: the end-to-end demo's engine.
+
+The C++ harness ``sim/verilator/system_harness.cpp`` runs the five clocks and
+replays the camera pins; Python talks to it line by line (read, write, run for
+some nanoseconds, grab a VGA frame, the UART line). :class:`SystemBus` turns
+that into the :class:`sw_hps.bus.Bus` protocol, so the unmodified
+:class:`sw_hps.app.GestureApp` with its :class:`~sw_hps.fifo.FifoPeripheral`
+and :class:`~sw_hps.robot.UartLink` drives the simulated hardware exactly as it
+drives the board through ``/dev/mem``; its sleeps advance simulated time.
+
+The cameras' I2C lines have no target in this simulation: the configuration
+masters meet NACKs and end with their error output (LEDR[2]); the camera
+waveforms stand for configured cameras.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hdl.verilator_pipeline import CFLAGS, clip_timing
+from hdl.verilator_sim import BUILD, ROOT, verilate
+from sim.model.pipeline import PipelineParams
+
+__all__ = ["SystemClocks", "build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
+
+HARNESS = ROOT / "sim" / "verilator" / "system_harness.cpp"
+TOP = "stereogest_system"
+
+
+@dataclass(frozen=True)
+class SystemClocks:
+    """Clock periods (and camera phases) in picoseconds: pipeline 100 MHz, the
+    cameras' PCLK at twice that (one pixel per pipeline clock in a line), the
+    configuration clock 50 MHz, the VGA pixel clock 25 MHz (the PLL's output)."""
+    sync_ps: int = 10_000
+    left_ps: int = 5_000
+    left_phase_ps: int = 0
+    right_ps: int = 5_000
+    right_phase_ps: int = 2_500
+    config_ps: int = 20_000
+    vga_ps: int = 40_000
+
+    @property
+    def sync_hz(self) -> float:
+        return 1e12 / self.sync_ps
+
+
+def _wrapper(core) -> str:
+    """Plain port names for the harness (Verilator mangles Amaranth's ``__``); the
+    I2C lines pulled up with no target; one reset input, registered per domain."""
+    fa = core.fifo.address.shape().width
+    ua = core.uart.address.shape().width
+    i2c = []
+    for side in ("left", "right"):
+        for line in ("scl", "sda"):
+            i2c.append(f".{side}_i2c__{line}_oe({side}_{line}_oe), "
+                       f".{side}_i2c__{line}_i(!{side}_{line}_oe)")
+    return f"""
+module {TOP}(input clk, input cam_left_clk, input cam_right_clk, input config_clk,
+  input vga_clk, input reset,
+  input left_vsync, input left_href, input [7:0] left_data,
+  input right_vsync, input right_href, input [7:0] right_data,
+  input [{fa - 1}:0] fifo_address, input fifo_read, input fifo_write,
+  input [31:0] fifo_writedata, output [31:0] fifo_readdata,
+  input [{ua - 1}:0] uart_address, input uart_read, input uart_write,
+  input [31:0] uart_writedata, output [31:0] uart_readdata,
+  output uart_tx, input uart_rx,
+  output [7:0] vga_r, output [7:0] vga_g, output [7:0] vga_b,
+  output vga_hsync, output vga_vsync, output vga_blank_n,
+  input [2:0] stage_select, input capture, input pause, input configure,
+  output [9:0] leds);
+  // Resets through a register of their domain: a primary input feeding logic
+  // makes Verilator re-evaluate all of it at every clock edge of the harness.
+  reg rst_q = 1, cam_left_rst_q = 1, cam_right_rst_q = 1, config_rst_q = 1, vga_rst_q = 1;
+  always @(posedge clk) rst_q <= reset;
+  always @(posedge cam_left_clk) cam_left_rst_q <= reset;
+  always @(posedge cam_right_clk) cam_right_rst_q <= reset;
+  always @(posedge config_clk) config_rst_q <= reset;
+  always @(posedge vga_clk) vga_rst_q <= reset;
+  wire left_scl_oe, left_sda_oe, right_scl_oe, right_sda_oe;
+  stereogest_core core(.clk(clk), .rst(rst_q),
+    .cam_left_clk(cam_left_clk), .cam_left_rst(cam_left_rst_q),
+    .cam_right_clk(cam_right_clk), .cam_right_rst(cam_right_rst_q),
+    .config_clk(config_clk), .config_rst(config_rst_q),
+    .vga_clk(vga_clk), .vga_rst(vga_rst_q),
+    .left__vsync(left_vsync), .left__href(left_href), .left__data(left_data),
+    .right__vsync(right_vsync), .right__href(right_href), .right__data(right_data),
+    .fifo__address(fifo_address), .fifo__read(fifo_read), .fifo__write(fifo_write),
+    .fifo__writedata(fifo_writedata), .fifo__readdata(fifo_readdata),
+    .uart__address(uart_address), .uart__read(uart_read), .uart__write(uart_write),
+    .uart__writedata(uart_writedata), .uart__readdata(uart_readdata),
+    .uart_tx(uart_tx), .uart_rx(uart_rx),
+    {", ".join(i2c)},
+    .vga__r(vga_r), .vga__g(vga_g), .vga__b(vga_b), .vga__hsync(vga_hsync),
+    .vga__vsync(vga_vsync), .vga__blank_n(vga_blank_n),
+    .stage_select(stage_select), .capture(capture), .pause(pause), .configure(configure),
+    .leds(leds));
+endmodule
+"""
+
+
+def _make_core(width, height, params, clocks: SystemClocks):
+    from .core import StereogestCore
+    return StereogestCore(width, height, params, sync_freq=clocks.sync_hz,
+                          config_freq=1e12 / clocks.config_ps)
+
+
+def _source_digest() -> str:
+    h = hashlib.sha256()
+    for folder in ("hdl", "soc"):
+        for path in sorted((ROOT / folder).glob("*.py")):
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
+    h.update(HARNESS.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
+                 clocks: SystemClocks = SystemClocks(), jobs: int | None = None,
+                 log=None) -> Path:
+    """Build (or reuse, cached under ``build/verilator/system-*``) the Verilated
+    core with the harness; returns the executable."""
+    from .core import emit_core_verilog
+    spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
+                config_ps=clocks.config_ps, **params.as_dict())
+    key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
+    folder = BUILD / f"system-{key}-{_source_digest()}"
+    exe = folder / "obj_dir" / "system_harness"
+    if exe.exists():
+        return exe
+    if log is not None:
+        log(f"building the Verilated system ({width}x{height}; a few minutes, cached)")
+    core = _make_core(width, height, params, clocks)
+    text = emit_core_verilog(core) + _wrapper(core)
+    return verilate(folder, f"{TOP}.v", text, spec, TOP, "system_harness", HARNESS,
+                    jobs=jobs, cflags=CFLAGS)
+
+
+class VerilatorSystem:
+    """A running harness process (use as a context manager).
+
+    Parameters
+    ----------
+    left_frames, right_frames : (F, H, 2W) uint8
+        The clip's 4:2:2 camera frames.
+    params : PipelineParams
+    clocks : SystemClocks
+    stage : int
+        ``stage_select`` (SW[9:7]) for the whole run.
+    """
+
+    def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
+                 *, clocks: SystemClocks = SystemClocks(), stage: int = 5, log=None):
+        from hdl.gesture_pipeline import GesturePipeline
+        from sim.camera import camera_waveform, pack_pins
+
+        from .vga_timing import VGA_640x480_60
+        left_frames, right_frames = np.asarray(left_frames), np.asarray(right_frames)
+        if left_frames.shape != right_frames.shape or left_frames.ndim != 3:
+            raise ValueError(f"left and right frames must be equal (F, H, 2W) arrays, got "
+                             f"{left_frames.shape} and {right_frames.shape}")
+        if isinstance(stage, bool) or not isinstance(stage, int) or not 0 <= stage <= 7:
+            raise ValueError(f"stage must be an int in [0, 7], got {stage!r}")
+        self.height, self.width = left_frames.shape[1], left_frames.shape[2] // 2
+        params.validate(self.width, self.height)
+        self.clocks = clocks
+        self.exe = build_system(self.width, self.height, params, clocks, log=log)
+        flush = GesturePipeline(self.width, self.height, params).flush
+        timing = clip_timing(self.width, self.height, flush, clocks)
+        self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")
+        tmp = Path(self._tmp.name)
+        # the right camera starts a few hundred cycles after the left one
+        pack_pins(camera_waveform(list(left_frames), timing, start_delay=64)) \
+            .astype("<u2").tofile(tmp / "left.bin")
+        pack_pins(camera_waveform(list(right_frames), timing, start_delay=364)) \
+            .astype("<u2").tofile(tmp / "right.bin")
+        mode = VGA_640x480_60
+        self.vga_size = (mode.h_active, mode.v_active)
+        args = [str(self.exe), str(tmp / "left.bin"), str(tmp / "right.bin"),
+                str(clocks.sync_ps), str(clocks.left_ps), str(clocks.left_phase_ps),
+                str(clocks.right_ps), str(clocks.right_phase_ps), str(clocks.config_ps),
+                str(clocks.vga_ps), str(stage), str(mode.h_active), str(mode.v_active)]
+        self._proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                      stderr=subprocess.PIPE, text=True, bufsize=1)
+        self.cycles = 0
+        self.cameras_done = False
+        self.stats: dict | None = None
+        # the harness holds every domain in reset for its first cycles: the
+        # application starts once they are over, as on the board
+        self.advance(1e-6)
+
+    def _ask(self, line: str) -> str:
+        if self._proc.poll() is not None:
+            raise RuntimeError(f"the system harness ended ({self._proc.returncode}): "
+                               f"{self._proc.stderr.read()}")
+        self._proc.stdin.write(line + "\n")
+        self._proc.stdin.flush()
+        reply = self._proc.stdout.readline().strip()
+        if not reply or reply.startswith("error"):
+            raise RuntimeError(f"system harness: {line!r} -> {reply!r} "
+                               f"({self._proc.stderr.read() if not reply else ''})")
+        return reply
+
+    def read32(self, address: int) -> int:
+        """Avalon read at byte ``address`` of the bridge window."""
+        return int(self._ask(f"r {address}"))
+
+    def write32(self, address: int, value: int) -> None:
+        self._ask(f"w {address} {value}")
+
+    def advance(self, seconds: float) -> None:
+        """Run the hardware for ``seconds`` of simulated time."""
+        cycles, done = self._ask(f"t {max(1, int(round(seconds * 1e9)))}").split()
+        self.cycles, self.cameras_done = int(cycles), done == "1"
+
+    def vga_frame(self) -> np.ndarray:
+        """The next whole VGA frame's active area (red channel), (height, width) uint8."""
+        path = Path(self._tmp.name) / "vga.bin"
+        self._ask(f"v {path}")
+        width, height = self.vga_size
+        return np.fromfile(path, dtype=np.uint8).reshape(height, width)
+
+    def uart_edges(self) -> np.ndarray:
+        """UART TX line changes since the last call: (N, 2) int64 of (ps, level)."""
+        fields = [int(v) for v in self._ask("u").split()]
+        return np.array(fields[1:], dtype=np.int64).reshape(-1, 2)
+
+    def close(self) -> dict:
+        """End the harness; returns its statistics."""
+        if self.stats is None and self._proc.poll() is None:
+            self._proc.stdin.write("q\n")
+            self._proc.stdin.flush()
+            out, err = self._proc.communicate(timeout=60)
+            lines = out.strip().splitlines()
+            self.stats = json.loads(lines[-1]) if lines else {"error": err}
+        self._tmp.cleanup()
+        return self.stats or {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        if self._proc.poll() is None:
+            self._proc.kill()
+
+
+class SystemBus:
+    """:class:`sw_hps.bus.Bus` over the simulated lightweight bridge.
+
+    Every access is one Avalon transfer of the harness; ``sleep(seconds)`` (give
+    it to the application) runs the hardware for that long. Pops of Dato_X /
+    Dato_Y are recorded in :attr:`popped` (raw words), Control reads in
+    :attr:`last_control`.
+    """
+
+    span = 0x1000
+
+    def __init__(self, system: VerilatorSystem):
+        self.system = system
+        self.popped: list[tuple[int, int]] = []
+        self._x: int | None = None
+        self.last_control = 0
+        self.accesses = 0
+
+    def read32(self, offset: int) -> int:
+        from sw_hps.bus import check_offset
+        from sw_hps.fifo import CONTROL, DATO_X, DATO_Y
+        check_offset(offset, self.span)
+        self.accesses += 1
+        value = self.system.read32(offset)
+        if offset == DATO_X:
+            self._x = value
+        elif offset == DATO_Y and self._x is not None:
+            self.popped.append((self._x, value))
+            self._x = None
+        elif offset == CONTROL:
+            self.last_control = value
+        return value
+
+    def write32(self, offset: int, value: int) -> None:
+        from sw_hps.bus import check_offset
+        check_offset(offset, self.span)
+        self.accesses += 1
+        self.system.write32(offset, value)
+
+    def sleep(self, seconds: float) -> None:
+        self.system.advance(seconds)
+
+    def close(self) -> None:
+        pass
+
+
+def decode_uart(edges: np.ndarray, baudrate: int = 115200) -> bytes:
+    """Bytes of an 8N1 line from its changes ((ps, level) rows, idle high): each
+    start bit's falling edge, then every bit sampled at its centre; a byte whose
+    stop bit reads 0 is dropped. An independent model of the receiver (not the
+    UART slave's logic)."""
+    bit = 1e12 / baudrate
+    times, levels = edges[:, 0].astype(float), edges[:, 1]
+
+    def level_at(t: float) -> int:
+        k = np.searchsorted(times, t, side="right") - 1
+        return 1 if k < 0 else int(levels[k])
+
+    out = bytearray()
+    t_end = -1.0
+    for t, level in zip(times, levels):
+        if level != 0 or t < t_end:
+            continue
+        if level_at(t + 0.5 * bit) != 0:
+            continue  # a glitch, not a start bit
+        value = sum(level_at(t + (1.5 + i) * bit) << i for i in range(8))
+        if level_at(t + 9.5 * bit):
+            out.append(value)
+        t_end = t + 9.5 * bit
+    return bytes(out)

@@ -1,0 +1,37 @@
+"""Write the Quartus project and the Platform Designer pieces of the recogniser
+for the DE1-SoC into DIR: the board top's Verilog, the .qsf (device
+5CSEMA5F31C6 and every pin), the .sdc (every clock), the core's Verilog, its
+_hw.tcl component, the qsys-script that builds the HPS system (the core's
+slaves on the lightweight HPS-to-FPGA bridge at 0x000 and 0x100), the Quartus
+flow script and a README with the steps. DIR must be new, empty, or a bundle
+written before (it is replaced as a whole). Quartus itself is not needed."""
+from __future__ import annotations
+
+import json
+import sys
+
+NAME = "generate"
+HELP = "write the Quartus / Platform Designer bundle for the DE1-SoC"
+
+
+def add_arguments(p):
+    p.add_argument("--out", metavar="DIR", required=True,
+                   help="bundle directory (new, empty or a previous bundle)")
+    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
+    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def run(args) -> int:
+    from soc.generate import generate
+
+    def progress(message):
+        if not args.quiet:
+            print(message, file=sys.stderr, flush=True)
+
+    info = generate(args.out, args.width, args.height, progress=progress)
+    print(f"wrote {len(info.files)} files to {info.out_dir} in {info.seconds:.1f} s; "
+          f"next: see {info.out_dir}/README.md (or run quartus_build.sh there)")
+    print(json.dumps({"out": str(info.out_dir), "files": list(info.files),
+                      "seconds": round(info.seconds, 1)}))
+    return 0

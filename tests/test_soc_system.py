@@ -1,0 +1,130 @@
+"""The whole FPGA side (soc.core.StereogestCore) as one design: its ports, and
+end to end under Verilator with the unmodified board application on its
+registers (small frames; the demo runs the full size)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.model.pipeline import PipelineParams, run_clip
+from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, emit_core_verilog
+from soc.end_to_end import frames_to_still, hold_still, run_end_to_end, stage_picture
+from soc.system_sim import SystemBus, VerilatorSystem, decode_uart
+from sw_hps.robot import UART_STATUS, UART_STATUS_TX_READY, UartLink, telegram
+from tests.test_hdl_gesture_pipeline import SMALL, small_frames
+
+W, H = 32, 16
+
+
+def test_core_ports_are_the_documented_ones():
+    from soc.platform_designer import verilog_ports
+    text = emit_core_verilog(StereogestCore(W, H, SMALL))
+    ports = {name: (direction, width) for name, direction, width in verilog_ports(text, CORE_NAME)}
+    expected = {"clk": ("input", 1), "rst": ("input", 1),
+                "fifo__address": ("input", 3), "fifo__readdata": ("output", 32),
+                "uart__address": ("input", 2), "uart__writedata": ("input", 32),
+                "left__data": ("input", 8), "right__vsync": ("input", 1),
+                "left_i2c__sda_oe": ("output", 1), "right_i2c__scl_i": ("input", 1),
+                "uart_tx": ("output", 1), "uart_rx": ("input", 1),
+                "vga__r": ("output", 8), "vga__blank_n": ("output", 1),
+                "stage_select": ("input", 3), "capture": ("input", 1), "pause": ("input", 1),
+                "configure": ("input", 1), "leds": ("output", 10)}
+    for domain in CLOCK_DOMAINS:
+        expected[f"{domain}_clk"] = ("input", 1)
+        expected[f"{domain}_rst"] = ("input", 1)
+    for name, port in expected.items():
+        assert ports.get(name) == port, name
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(sync_freq=0), "sync_freq"), (dict(config_freq=1e12), "config_freq"),
+    (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"),
+])
+def test_core_rejects_bad_parameters(kwargs, word):
+    args = dict(width=W, height=H, params=SMALL)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=word):
+        StereogestCore(**args)
+
+
+def test_decode_uart_is_a_real_receiver():
+    bit = round(1e12 / 115200)
+    # 0x31 = 0b00110001, LSB first, then a byte with a broken stop bit
+    levels = [0] + [(0x31 >> i) & 1 for i in range(8)] + [1] + \
+             [0] + [(0x55 >> i) & 1 for i in range(8)] + [0, 1]
+    edges, last = [], 1
+    for k, level in enumerate(levels):
+        if level != last:
+            edges.append((1000 + k * bit, level))
+            last = level
+    assert decode_uart(np.array(edges, dtype=np.int64)) == b"\x31"
+
+
+@pytest.fixture(scope="module")
+def system_run():
+    """Twelve small frames with a moving hand through the Verilated core and the
+    board application, beside the golden model."""
+    from sw_hps.hmm import load_models
+    import sw_hps
+    from pathlib import Path
+    models = load_models(Path(sw_hps.__file__).parent / "models" / "thesis7.json")
+    left, right = small_frames(12, W, H)
+    trajectory, kept = run_clip(left, right, SMALL, keep=lambda n: n == 11)
+    left, right, played, extra = hold_still(left, right, trajectory, SMALL)
+    result = run_end_to_end(left, right, models, played, kept[11], SMALL, stage="left")
+    return result, played, extra
+
+
+def test_fifo_words_equal_the_golden_model(system_run):
+    result, played, _ = system_run
+    assert played.flag.any()
+    assert result.expected, "the clip must flag some frames"
+    assert result.popped == result.expected
+
+
+def test_vga_frame_equals_the_golden_model(system_run):
+    result, _, _ = system_run
+    assert result.vga.shape == (480, 640)
+    assert result.vga[:H, :W].any()
+    assert result.vga_mismatches == 0
+
+
+def test_leds_show_go_and_the_unanswered_configuration(system_run):
+    result, _, _ = system_run
+    leds = result.leds
+    assert leds & (1 << 5), "GO set by the application"
+    assert leds & (1 << 2), "no I2C target in this simulation: configuration error"
+    assert not leds & 0b11
+
+
+def test_hold_still_ends_the_flag(system_run):
+    _, played, extra = system_run
+    assert not played.flag[-1]
+    assert frames_to_still(played, SMALL) == 0
+
+
+@pytest.mark.parametrize("stage", ["disparity", "skin", "left"])
+def test_stage_picture_matches_the_pipeline_video_encoding(stage):
+    left, right = small_frames(2, W, H)
+    _, kept = run_clip(left, right, SMALL, keep=lambda n: True)
+    picture = stage_picture(kept[1], stage, 4)
+    assert picture.dtype == np.uint8 and picture.shape == (H, W)
+    if stage == "disparity":
+        assert np.array_equal(picture, kept[1].disparity.astype(np.uint8) << 4)
+    elif stage == "skin":
+        assert set(np.unique(picture)) <= {0, 255}
+
+
+def test_uart_link_bytes_reach_the_tx_pin():
+    """The HPS driver (UartLink) through the Avalon slave to the pin, decoded by
+    the independent receiver."""
+    left, right = small_frames(1, W, H)
+    with VerilatorSystem(left, right, SMALL) as system:
+        bus = SystemBus(system)
+        system.advance(2e-6)
+        assert bus.read32(0x100 + UART_STATUS) & UART_STATUS_TX_READY
+        data = telegram("stop") + telegram("forward")
+        assert UartLink(bus, 0x100).send(data)
+        system.advance(len(data) * 10 / 115200 + 200e-6)
+        edges = system.uart_edges()
+    assert decode_uart(edges) == data
