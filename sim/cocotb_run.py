@@ -52,11 +52,15 @@ def run_cocotb(verilog: str, toplevel: str, test_module: str, test_dir, *,
     runner = get_runner("verilator")
     runner.build(sources=[source], hdl_toplevel=toplevel, build_dir=build_dir,
                  build_args=["-Wno-WIDTH", "-Wno-fatal", "-O2"], timescale=("1ns", "1ps"))
-    results = runner.test(test_module=test_module, hdl_toplevel=toplevel,
-                          build_dir=build_dir, test_dir=str(test_dir),
-                          extra_env={k: str(v) for k, v in (extra_env or {}).items()},
-                          testcase=testcase, timescale=("1ns", "1ps"),
-                          results_xml=str(build_dir / f"{test_module}-results.xml"))
+    try:
+        results = runner.test(test_module=test_module, hdl_toplevel=toplevel,
+                              build_dir=build_dir, test_dir=str(test_dir),
+                              extra_env={k: str(v) for k, v in (extra_env or {}).items()},
+                              testcase=testcase, timescale=("1ns", "1ps"),
+                              results_xml=str(build_dir / f"{test_module}-results.xml"))
+    except SystemExit as exc:  # the runner exits on a failed test; report it as one
+        raise AssertionError(f"cocotb {test_module} on {toplevel} failed (exit {exc.code}); "
+                             "log above") from None
     total, failed = get_results(results)
     if failed or not total:
         raise AssertionError(f"cocotb {test_module} on {toplevel}: {failed} of {total} "

@@ -226,7 +226,7 @@ def test_pipeline_not_a_clip(tmp_path, capsys):
 def test_demo_small(tmp_path, capsys):
     out = tmp_path / "demo"
     status, stdout, err = run(capsys, "demo", "--width", "160", "--height", "120", "-o", out,
-                              "--quiet")
+                              "--backend", "model", "--quiet")
     assert status == 0 and err == ""
     summary = json.loads(stdout.strip().splitlines()[-1])
     assert {"gesture", "frames", "flagged", "symbols"} <= set(summary)
@@ -248,14 +248,17 @@ def test_demo_small(tmp_path, capsys):
 # ---------------------------------------------------------------- help
 
 HELP_OPTIONS = {
-    None: ["render", "stereo", "eval-stereo", "pipeline", "demo"],
+    None: ["render", "stereo", "eval-stereo", "pipeline", "demo", "generate", "resources"],
     "render": ["--gesture", "--seed", "--output", "--width", "--height", "--fps"],
     "stereo": ["LEFT", "RIGHT", "--output", "--census-window", "--hamming-window",
                "--max-disparity", "--lrcc-threshold", "--no-match-cost",
                "--prefilter-median", "--no-disparity-median", "--threads"],
     "eval-stereo": ["DISP.png", "GT.png", "--gt-scale", "--max-error", "--exclude-left"],
     "pipeline": ["CLIP", "--output", "--frames", "--threads", "--quiet"],
-    "demo": ["--gesture", "--seed", "--width", "--height", "--output", "--threads", "--quiet"],
+    "demo": ["--gesture", "--seed", "--width", "--height", "--output", "--backend", "--stage",
+             "--threads", "--quiet"],
+    "generate": ["--out", "--width", "--height"],
+    "resources": ["--width", "--height", "--quiet"],
 }
 
 

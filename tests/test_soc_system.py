@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.model.pipeline import PipelineParams, run_clip
+from sim.model.pipeline import run_clip
 from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, emit_core_verilog
 from soc.end_to_end import frames_to_still, hold_still, run_end_to_end, stage_picture
 from soc.system_sim import SystemBus, VerilatorSystem, decode_uart
