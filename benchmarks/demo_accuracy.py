@@ -23,7 +23,7 @@ GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "
 
 
 def one_clip(job):
-    gesture, seed, width, height = job
+    gesture, seed, width, height, exe = job
     from sim.model.pipeline import PipelineParams
     from sim.render import render_clip
     from soc.end_to_end import clip_end_to_end
@@ -34,7 +34,7 @@ def one_clip(job):
     params = PipelineParams.for_frame(width)
     start = time.perf_counter()
     clip = render_clip(gesture, seed, width, height)
-    _, _, extra, result = clip_end_to_end(clip, models, params, threads=1)
+    _, _, extra, result = clip_end_to_end(clip, models, params, threads=1, exe=exe)
     return {"gesture": gesture, "seed": seed, "frames": clip.frames, "held": extra,
             "recognised": result.recognised,
             "all_recognised": [r.get("class_name") for r in result.results
@@ -61,8 +61,8 @@ def main(argv=None):
 
     start = time.perf_counter()
     print(f"building the Verilated system at {args.width}x{args.height} ...", flush=True)
-    build_system(args.width, args.height, PipelineParams.for_frame(args.width))
-    jobs = [(g, args.first_seed + k, args.width, args.height)
+    exe = build_system(args.width, args.height, PipelineParams.for_frame(args.width))
+    jobs = [(g, args.first_seed + k, args.width, args.height, exe)
             for k in range(args.per_gesture) for g in GESTURES]
     rows = []
     print("| gesture | seed | frames | recognised | FIFO = model | VGA = model | UART = "

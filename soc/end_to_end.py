@@ -110,7 +110,7 @@ def stage_picture(stages: FrameStages, stage: str, disparity_bits: int) -> np.nd
 def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
                    *, stage: str = "opening", clocks: SystemClocks = SystemClocks(),
-                   poll_interval: float = 0.005, progress=None) -> EndToEndResult:
+                   poll_interval: float = 0.005, progress=None, exe=None) -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
     Parameters
@@ -126,6 +126,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         The VGA stage (SW[9:7]), one of ``hdl.gesture_pipeline.VIDEO_STAGES``.
     progress : callable, optional
         ``progress(text)`` for progress lines.
+    exe : path, optional
+        A prebuilt harness (:func:`soc.system_sim.build_system`).
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
     from sim.model.vga import vga_frame
@@ -146,7 +148,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     start = time.perf_counter()
     with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
                          stage=VIDEO_STAGES.index(stage),
-                         log=progress) as system:
+                         log=progress, exe=exe) as system:
         bus = SystemBus(system)
         app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
                          sleep=bus.sleep, poll_interval=poll_interval)
@@ -192,7 +194,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
 
 
 def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
-                    keep=(), threads=None, model_progress=None, progress=None):
+                    keep=(), threads=None, model_progress=None, progress=None, exe=None):
     """A rendered clip end to end: the golden model over every frame (keeping the
     stages of the frames in ``keep`` and of the last one), the hold-still
     extension, then :func:`run_end_to_end`. Returns (model trajectory of the
@@ -203,5 +205,5 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
                                 progress=model_progress, threads=threads)
     left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
-                            stage=stage, progress=progress)
+                            stage=stage, progress=progress, exe=exe)
     return played, kept, extra, result

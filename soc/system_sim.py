@@ -155,10 +155,14 @@ class VerilatorSystem:
     clocks : SystemClocks
     stage : int
         ``stage_select`` (SW[9:7]) for the whole run.
+    exe : path, optional
+        A harness already built by :func:`build_system` for these parameters
+        (default: build or reuse the cached one).
     """
 
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
-                 *, clocks: SystemClocks = SystemClocks(), stage: int = 5, log=None):
+                 *, clocks: SystemClocks = SystemClocks(), stage: int = 5, log=None,
+                 exe: Path | None = None):
         from hdl.gesture_pipeline import GesturePipeline
         from sim.camera import camera_waveform, pack_pins
 
@@ -172,7 +176,8 @@ class VerilatorSystem:
         self.height, self.width = left_frames.shape[1], left_frames.shape[2] // 2
         params.validate(self.width, self.height)
         self.clocks = clocks
-        self.exe = build_system(self.width, self.height, params, clocks, log=log)
+        self.exe = Path(exe) if exe is not None else \
+            build_system(self.width, self.height, params, clocks, log=log)
         flush = GesturePipeline(self.width, self.height, params).flush
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")

@@ -48,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"stereogest {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # a tool (Verilator, yosys) or a simulation failed
+        print(f"stereogest {args.command}: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"stereogest {args.command}: interrupted", file=sys.stderr)
         return 130
