@@ -58,8 +58,20 @@ class EndToEndResult:
         return int(np.count_nonzero(self.vga != self.vga_expected))
 
     @property
+    def telegrams(self) -> bytes:
+        """Every telegram the application sent, in order."""
+        return b"".join(bytes.fromhex(r["telegram"]) for r in self.results
+                        if r.get("sent") and r.get("telegram"))
+
+    @property
+    def recognised_all(self) -> list:
+        """Every recognised gesture, in order."""
+        return [r["class_name"] for r in self.results if r.get("outcome") == "recognised"]
+
+    @property
     def uart_matches_telegram(self) -> bool:
-        return self.uart_bytes == (self.telegram or b"")
+        """The bytes on the UART pin are exactly the telegrams the application sent."""
+        return self.uart_bytes == self.telegrams
 
 
 def frames_to_still(trajectory: Trajectory, params: PipelineParams, limit: int = 256) -> int:

@@ -36,8 +36,12 @@ from .segmentation import disparity_band, hand_mask, skin_mask
 from .stereo import check_stereo_params, stereo_match
 from .ycbcr import ycbcr422_to_444
 
-__all__ = ["PipelineParams", "FrameStages", "Trajectory", "process_frame", "track",
+__all__ = ["PipelineParams", "DEMO_SPOT_HOLD", "FrameStages", "Trajectory", "process_frame", "track",
            "step_symbols", "run_clip"]
+
+
+#: Still frames that end a gesture in the end-to-end demo (:meth:`PipelineParams.for_frame`).
+DEMO_SPOT_HOLD = 24
 
 
 @dataclass(frozen=True)
@@ -87,11 +91,15 @@ class PipelineParams:
 
     @classmethod
     def for_frame(cls, width: int, **overrides) -> "PipelineParams":
-        """The thesis values with the spotting threshold Tm, a distance in pixels
-        set for 640-pixel-wide frames, scaled to ``width`` (the same hand motion
-        spans half the pixels at 320); every other value is kept."""
+        """The parameters of the end-to-end demo for frames ``width`` pixels wide:
+        the thesis values, with the spotting threshold Tm (a distance in pixels,
+        set for 640-pixel-wide frames) scaled to ``width``, and the spotting hold
+        raised to :data:`DEMO_SPOT_HOLD` frames (the rendered out-and-back
+        gestures dwell at their turn long enough to split under 16; measured on
+        the development seeds, see soc/README.md)."""
         check_int("width", width, 16, 4096)
-        values = dict(spot_threshold=max(1, round(cls.spot_threshold * width / 640)))
+        values = dict(spot_threshold=max(1, round(cls.spot_threshold * width / 640)),
+                      spot_hold=DEMO_SPOT_HOLD)
         values.update(overrides)
         return cls(**values)
 

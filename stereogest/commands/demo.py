@@ -77,8 +77,8 @@ def run(args) -> int:
     print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
           f"{clip.motion_frames[1]} -> {clip_dir}")
-    if params.spot_threshold != PipelineParams().spot_threshold:
-        print(f"spotting threshold Tm scaled to the frame width: {params.spot_threshold} px")
+    print(f"spotting: Tm = {params.spot_threshold} px (thesis 30 at 640 wide, scaled to the "
+          f"width), end after {params.spot_hold} still frames")
 
     chosen = set(parse_frames(None, clip.frames, tuple(clip.motion_frames)))
     say("golden model:")
@@ -116,7 +116,7 @@ def run(args) -> int:
                   f"hand still for {extra} more frames (trajectory.csv includes them)")
         write_png(out / "vga.png", result.vga, bits=8)
         recognised = result.recognised
-        telegram = result.uart_bytes.hex(" ") if result.uart_bytes else None
+        uart_hex = result.uart_bytes.hex(" ")
         cps = result.stats.get("cycles_per_second", 0)
         print(f"hardware: {result.cycles:,} pipeline cycles in {result.seconds:.1f} s "
               f"({cps:,.0f} cycles/s), LEDR = {result.leds:010b}")
@@ -127,16 +127,21 @@ def run(args) -> int:
         print(f"VGA frame ({args.stage}, {out / 'vga.png'}): "
               + ("equal to the golden model's picture" if mism == 0 else
                  f"{mism} pixels differ from the golden model's picture"))
-        print(f"UART TX pin: {telegram or 'nothing'}"
-              + (" (the application's telegram)" if result.uart_matches_telegram
-                 else " (DIFFERENT from the application's telegram "
-                 f"{result.telegram.hex(' ') if result.telegram else None})"))
+        print(f"UART TX pin: {uart_hex or 'nothing'}"
+              + (" (the application's telegrams)" if result.uart_matches_telegram
+                 else " (DIFFERENT from the application's telegrams "
+                 f"{result.telegrams.hex(' ') or None})"))
+        if len(result.recognised_all) > 1:
+            print(f"board application: {len(result.recognised_all)} gestures recognised: "
+                  f"{', '.join(result.recognised_all)}; the last one counts")
+        telegram = result.telegram.hex(" ") if result.telegram else None
         print(f"board application: recognised {recognised or 'nothing'}"
               + (f", NXT telegram {telegram}" if telegram else ""))
         report.update(fifo_matches_model=result.fifo_matches_model, vga_mismatches=mism,
                       uart_matches_telegram=result.uart_matches_telegram,
                       hardware_seconds=round(result.seconds, 1), cycles=result.cycles,
-                      held_frames=extra)
+                      held_frames=extra, recognised_all=result.recognised_all,
+                      uart=result.uart_bytes.hex(" "))
         if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram):
             report.update(recognised=recognised, telegram=telegram)
             print(json.dumps(report))
