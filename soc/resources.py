@@ -24,15 +24,21 @@ DEVICE = {"name": "5CSEMA5F31C6", "alms": 32_070, "registers": 128_280, "m10k": 
 
 
 def memory_bits(rtlil_text: str) -> dict:
-    """Bits of every memory of a design (width x depth), by memory name, from
-    Amaranth's RTLIL (``memory width W size N NAME`` declarations)."""
+    """Bits of every memory of a design (width x depth), keyed ``module.memory``,
+    from Amaranth's RTLIL (``memory width W size N NAME`` inside ``module NAME``;
+    Amaranth writes one module per instance, so every instance counts)."""
     bits = {}
-    for match in re.finditer(r"^\s*memory\s+(.*?)\s+(\S+)\s*$", rtlil_text, re.M):
-        fields = dict(re.findall(r"(width|size|offset)\s+(\d+)", match.group(1)))
-        if "width" not in fields or "size" not in fields:
-            raise ValueError(f"unexpected RTLIL memory declaration: {match.group(0).strip()!r}")
-        name = match.group(2).lstrip("\\")
-        bits[name] = bits.get(name, 0) + int(fields["width"]) * int(fields["size"])
+    module = ""
+    for line in rtlil_text.splitlines():
+        words = line.split()
+        if len(words) >= 2 and words[0] == "module":
+            module = words[1].lstrip("\\")
+        elif words and words[0] == "memory":
+            fields = dict(re.findall(r"(width|size|offset)\s+(\d+)", line))
+            if "width" not in fields or "size" not in fields:
+                raise ValueError(f"unexpected RTLIL memory declaration: {line.strip()!r}")
+            name = f"{module}.{words[-1].lstrip(chr(92))}"
+            bits[name] = bits.get(name, 0) + int(fields["width"]) * int(fields["size"])
     return bits
 
 
