@@ -38,7 +38,7 @@ from amaranth.hdl import ClockDomain, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.pipeline import PipelineParams
+from sim.model.pipeline import VIDEO_STAGES, PipelineParams
 
 from ._util import OVERRUN_ROWS, bits_for, check_geometry
 from .camera_capture import CameraCapture
@@ -54,8 +54,6 @@ from .ycbcr422 import YCbCr422To444
 
 __all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop"]
 
-#: Stage-select video output (thesis Table 22, switches SW[9:7]).
-VIDEO_STAGES = ("right", "left", "disparity", "skin", "band", "opening")
 
 
 def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:

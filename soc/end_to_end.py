@@ -21,11 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.model.pipeline import FrameStages, PipelineParams, Trajectory, track
+from sim.model.pipeline import FrameStages, PipelineParams, Trajectory, track, video_picture
 
 from .system_sim import SystemBus, SystemClocks, VerilatorSystem, decode_uart
 
-__all__ = ["EndToEndResult", "frames_to_still", "hold_still", "stage_picture", "run_end_to_end",
+__all__ = ["EndToEndResult", "frames_to_still", "hold_still", "run_end_to_end",
            "clip_end_to_end"]
 
 log = logging.getLogger(__name__)
@@ -107,18 +107,6 @@ def hold_still(left_frames, right_frames, trajectory: Trajectory, params: Pipeli
     return left, right, longer, extra
 
 
-def stage_picture(stages: FrameStages, stage: str, disparity_bits: int) -> np.ndarray:
-    """The 8-bit picture the pipeline's ``o_video`` carries for ``stage``
-    (hdl.gesture_pipeline.VIDEO_STAGES): masks as 0/255, disparity shifted to 8 bits."""
-    pictures = {
-        "right": stages.right, "left": stages.left,
-        "disparity": (stages.disparity.astype(np.uint16) << (8 - disparity_bits)).astype(np.uint8),
-        "skin": stages.skin.astype(np.uint8) * 255, "band": stages.band.astype(np.uint8) * 255,
-        "opening": stages.opened.astype(np.uint8) * 255,
-    }
-    return pictures[stage]
-
-
 def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
                    *, stage: str = "opening", clocks: SystemClocks = SystemClocks(),
@@ -191,7 +179,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     vga_expected = None
     if last_stages is not None:
         mode = VGA_640x480_60
-        picture = stage_picture(last_stages, stage, pipeline.disparity_bits)
+        picture = video_picture(last_stages, stage, pipeline.disparity_bits)
         raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS)
         active = raster[..., 5].astype(bool)
         vga_expected = raster[..., 0][active].reshape(mode.v_active, mode.h_active)

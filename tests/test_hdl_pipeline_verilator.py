@@ -127,6 +127,7 @@ def test_stage_select_video_shows_the_golden_model_stage(stage):
     """The VGA debug output (thesis Table 22): every frame of the selected stage,
     pixel for pixel the golden model's picture of it."""
     from hdl.gesture_pipeline import VIDEO_STAGES
+    from sim.model.pipeline import video_picture
     lefts, rights, left, right, _ = _waves("none")
     run = run_pipeline(left, right, WIDTH, HEIGHT, SMALL, fifo_depth=256,
                        video_select=VIDEO_STAGES.index(stage))
@@ -134,10 +135,8 @@ def test_stage_select_video_shows_the_golden_model_stage(stage):
     first = np.flatnonzero(run.video >> 8)
     pixels = (run.video & 0xFF).astype(np.int64)
     assert len(first) == FRAMES and len(pixels) == FRAMES * WIDTH * HEIGHT
-    shift = 8 - (SMALL.max_disparity - 1).bit_length()
+    disparity_bits = (SMALL.max_disparity - 1).bit_length()
     for k, st in enumerate(stages):
-        picture = {"right": st.right, "left": st.left,
-                   "disparity": st.disparity.astype(np.int64) << shift,
-                   "skin": st.skin * 255, "band": st.band * 255, "opening": st.opened * 255}[stage]
+        picture = video_picture(st, stage, disparity_bits)
         got = pixels[first[k]:first[k] + WIDTH * HEIGHT].reshape(HEIGHT, WIDTH)
         assert np.array_equal(got, picture), (stage, k)

@@ -8,7 +8,8 @@ import pytest
 
 from sim.model.pipeline import run_clip
 from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, emit_core_verilog
-from soc.end_to_end import frames_to_still, hold_still, run_end_to_end, stage_picture
+from sim.model.pipeline import video_picture
+from soc.end_to_end import frames_to_still, hold_still, run_end_to_end
 from soc.system_sim import SystemBus, VerilatorSystem, decode_uart
 from sw_hps.robot import UART_STATUS, UART_STATUS_TX_READY, UartLink, telegram
 from tests.test_hdl_gesture_pipeline import SMALL, small_frames
@@ -104,10 +105,10 @@ def test_hold_still_ends_the_flag(system_run):
 
 
 @pytest.mark.parametrize("stage", ["disparity", "skin", "left"])
-def test_stage_picture_matches_the_pipeline_video_encoding(stage):
+def test_video_picture_matches_the_pipeline_video_encoding(stage):
     left, right = small_frames(2, W, H)
     _, kept = run_clip(left, right, SMALL, keep=lambda n: True)
-    picture = stage_picture(kept[1], stage, 4)
+    picture = video_picture(kept[1], stage, 4)
     assert picture.dtype == np.uint8 and picture.shape == (H, W)
     if stage == "disparity":
         assert np.array_equal(picture, kept[1].disparity.astype(np.uint8) << 4)

@@ -36,7 +36,7 @@ from .segmentation import disparity_band, hand_mask, skin_mask
 from .stereo import check_stereo_params, stereo_match
 from .ycbcr import ycbcr422_to_444
 
-__all__ = ["PipelineParams", "DEMO_SPOT_HOLD", "FrameStages", "Trajectory", "process_frame", "track",
+__all__ = ["PipelineParams", "DEMO_SPOT_HOLD", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",
            "step_symbols", "run_clip"]
 
 
@@ -154,6 +154,25 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     hand = hand_mask(skin, band)
     opened = opening(hand, params.opening_shape, size=params.opening_size)
     return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, centroid(opened))
+
+
+#: Stages of the pipeline's stage-select video output (thesis Table 22, SW[9:7]).
+VIDEO_STAGES = ("right", "left", "disparity", "skin", "band", "opening")
+
+
+def video_picture(stages: FrameStages, stage: str, disparity_bits: int) -> np.ndarray:
+    """The 8-bit picture the pipeline's stage-select video output carries for
+    ``stage`` (one of :data:`VIDEO_STAGES`): camera luma as is, the disparity
+    shifted up to 8 bits, masks as 0/255."""
+    if stage not in VIDEO_STAGES:
+        raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
+    check_int("disparity_bits", disparity_bits, 1, 8)
+    if stage in ("right", "left"):
+        return getattr(stages, stage).astype(np.uint8)
+    if stage == "disparity":
+        return (stages.disparity.astype(np.uint16) << (8 - disparity_bits)).astype(np.uint8)
+    mask = {"skin": stages.skin, "band": stages.band, "opening": stages.opened}[stage]
+    return mask.astype(np.uint8) * np.uint8(255)
 
 
 class Trajectory(NamedTuple):
