@@ -63,12 +63,19 @@ endmodule
 """
 
 
-def _source_digest() -> str:
+def sources_digest(folders, files) -> str:
+    """Short hash of the Python sources of ``folders`` (under the project root)
+    and of ``files``: the part of a build-cache key that changes on any edit."""
     h = hashlib.sha256()
-    for path in sorted((ROOT / "hdl").glob("*.py")) + [HARNESS]:
+    paths = [p for folder in folders for p in sorted((ROOT / folder).glob("*.py"))]
+    for path in paths + list(files):
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
+
+
+def _source_digest() -> str:
+    return sources_digest(["hdl"], [HARNESS])
 
 
 def _params(dut) -> dict:

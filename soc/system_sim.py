@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from hdl.verilator_pipeline import CFLAGS, clip_timing
-from hdl.verilator_sim import BUILD, ROOT, verilate
+from hdl.verilator_sim import BUILD, ROOT, sources_digest, verilate
 from sim.model.pipeline import PipelineParams
 
 __all__ = ["SystemClocks", "build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
@@ -113,16 +113,6 @@ def _make_core(width, height, params, clocks: SystemClocks):
                           config_freq=1e12 / clocks.config_ps)
 
 
-def _source_digest() -> str:
-    h = hashlib.sha256()
-    for folder in ("hdl", "soc"):
-        for path in sorted((ROOT / folder).glob("*.py")):
-            h.update(path.name.encode())
-            h.update(path.read_bytes())
-    h.update(HARNESS.read_bytes())
-    return h.hexdigest()[:16]
-
-
 def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
                  clocks: SystemClocks = SystemClocks(), jobs: int | None = None,
                  log=None) -> Path:
@@ -132,7 +122,7 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
                 config_ps=clocks.config_ps, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    folder = BUILD / f"system-{key}-{_source_digest()}"
+    folder = BUILD / f"system-{key}-{sources_digest(['hdl', 'soc'], [HARNESS])}"
     exe = folder / "obj_dir" / "system_harness"
     if exe.exists():
         return exe
