@@ -19,7 +19,7 @@ import numpy as np
 
 from sim.model.pipeline import PipelineParams
 
-from .verilator_sim import BUILD, ROOT, _source_digest, verilate
+from .verilator_sim import BUILD, ROOT, sources_digest, verilate
 
 __all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
            "run_clip_hardware", "RECORD_FIELDS"]
@@ -115,7 +115,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
                 cflags=cflags, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    digest = hashlib.sha256((_source_digest() + HARNESS.read_text()).encode()).hexdigest()[:16]
+    digest = sources_digest(["hdl"], [HARNESS])
     folder = BUILD / f"pipeline-{key}-{digest}"
     exe = folder / "obj_dir" / "pipeline_harness"
     if exe.exists():

@@ -64,11 +64,14 @@ endmodule
 
 
 def sources_digest(folders, files) -> str:
-    """Short hash of the Python sources of ``folders`` (under the project root)
-    and of ``files``: the part of a build-cache key that changes on any edit."""
+    """Short hash of the Python sources of ``folders`` (under the project root),
+    of ``files`` and of the C++ headers beside them (a harness's includes): the
+    part of a build-cache key that changes on any edit."""
     h = hashlib.sha256()
     paths = [p for folder in folders for p in sorted((ROOT / folder).glob("*.py"))]
-    for path in paths + list(files):
+    files = [Path(f) for f in files]
+    headers = sorted({h for f in files for h in f.parent.glob("*.h")})
+    for path in paths + files + headers:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]

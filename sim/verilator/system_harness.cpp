@@ -31,25 +31,8 @@
 #include <vector>
 
 #include "Vstereogest_system.h"
+#include "camera_pins.h"
 #include "verilated.h"
-
-static bool read_file(const char* path, std::vector<uint16_t>& out) {
-    FILE* f = std::fopen(path, "rb");
-    if (!f) return false;
-    std::fseek(f, 0, SEEK_END);
-    long bytes = std::ftell(f);
-    std::fseek(f, 0, SEEK_SET);
-    out.resize(bytes / 2);
-    bool ok = std::fread(out.data(), 2, out.size(), f) == out.size();
-    std::fclose(f);
-    return ok;
-}
-
-struct Clock {
-    long half;   // half period, ps
-    long next;   // time of the next toggle, ps
-    bool level;
-};
 
 enum { SYNC, LEFT, RIGHT, CONFIG, VGA, NCLOCKS };
 
@@ -90,18 +73,7 @@ struct System {
             if (k == VGA && c.level) ++vga_cycles;
             if ((k == LEFT || k == RIGHT) && !c.level) {  // camera falling edge: next byte
                 const int cam = k - LEFT;
-                const long i = ++index[cam];
-                const uint16_t word = i < static_cast<long>(pins[cam].size()) ? pins[cam][i]
-                                                                              : (1u << 9);
-                if (cam == 0) {
-                    top->left_vsync = (word >> 9) & 1;
-                    top->left_href = (word >> 8) & 1;
-                    top->left_data = word & 0xff;
-                } else {
-                    top->right_vsync = (word >> 9) & 1;
-                    top->right_href = (word >> 8) & 1;
-                    top->right_data = word & 0xff;
-                }
+                drive_camera(top, cam, pins[cam], ++index[cam]);
             }
         }
         top->clk = clocks[SYNC].level;
@@ -203,7 +175,7 @@ int main(int argc, char** argv) {
     }
     System s;
     for (int k = 0; k < 2; ++k) {
-        if (!read_file(argv[1 + k], s.pins[k])) {
+        if (!read_pins(argv[1 + k], s.pins[k])) {
             std::fprintf(stderr, "cannot read %s\n", argv[1 + k]);
             return 1;
         }
