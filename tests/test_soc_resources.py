@@ -25,7 +25,7 @@ def test_estimate_sets_the_figures_beside_table_23_and_the_device(monkeypatch):
     import hdl.synthesis
     calls = []
 
-    def fake_synthesize(dut, name, yosys):
+    def fake_synthesize(dut, name, yosys, autoname=True):
         calls.append(name)
         return {"alm_estimate": 2_000, "luts": 3_000, "ffs": 8_000, "m10k": 50 + len(calls),
                 "mlab": 1, "tool": "yosys", "levels": len(calls), "delay_ns": float(len(calls))}
@@ -54,7 +54,11 @@ def test_synthesize_maps_an_initialised_frame_buffer_to_m10k():
     from amaranth.hdl import DomainRenamer
 
     from hdl.synthesis import find_yosys, synthesize
-    fb = DomainRenamer({"vga": "sync"})(FrameBuffer(64, 32))
-    report = synthesize(fb, "frame_buffer", find_yosys())
-    assert report["m10k"] == 1                # 8192 bits: one block (2048 x 5 mode)
-    assert 0 < report["ffs"] < 200 and 0 < report["luts"] < 400
+    reports = []
+    for autoname in (True, False):            # the estimate skips autoname
+        fb = DomainRenamer({"vga": "sync"})(FrameBuffer(64, 32))
+        report = synthesize(fb, "frame_buffer", find_yosys(), autoname=autoname)
+        assert report["m10k"] == 1            # 8192 bits: one block (2048 x 5 mode)
+        assert 0 < report["ffs"] < 200 and 0 < report["luts"] < 400
+        reports.append({k: report[k] for k in ("luts", "ffs", "m10k", "mlab", "levels")})
+    assert reports[0] == reports[1]
