@@ -27,7 +27,7 @@ input      ``stage_select`` (SW[9:7]) VGA stage, :data:`VIDEO_STAGES`;
 """
 from __future__ import annotations
 
-from amaranth.hdl import (Cat, ClockDomain, ClockSignal, DomainRenamer, Module, ResetSignal,
+from amaranth.hdl import (Cat, ClockDomain, DomainRenamer, Module,
                           Shape, Signal)
 from amaranth.lib import cdc, wiring
 from amaranth.lib.wiring import In, Out
@@ -94,10 +94,6 @@ class StereogestCore(wiring.Component):
         Bits kept per pixel by the VGA frame buffer.
     config_table : sequence of (address, value, delay_ms), optional
         OV5642 register writes (default: the vendored 988-row table).
-    one_clock : bool
-        Clock every domain from ``sync`` (the ``*_clk`` / ``*_rst`` ports are then
-        unused). Only for resource estimates: the logic and the memories are the
-        same, but Yosys maps a RAM to M10K blocks only when both ports share a clock.
 
     Ports
     -----
@@ -116,11 +112,8 @@ class StereogestCore(wiring.Component):
                  config_freq: float = 50e6, vga_mode: VgaMode = VGA_640x480_60,
                  fifo_depth: int = 512, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
-                 config_table=None, one_clock: bool = False):
+                 config_table=None):
         width, height = check_geometry(width, height)
-        if not isinstance(one_clock, bool):
-            raise ValueError(f"one_clock must be a bool, got {one_clock!r}")
-        self.one_clock = one_clock
         self.sync_freq = _check_frequency("sync_freq", sync_freq, 1e6, 500e6)
         self.config_freq = _check_frequency("config_freq", config_freq, 1e6, 500e6)
         if not isinstance(vga_mode, VgaMode):
@@ -156,11 +149,8 @@ class StereogestCore(wiring.Component):
         for name in CLOCK_DOMAINS:
             cd = ClockDomain(name, local=True)
             m.domains += cd
-            if self.one_clock:
-                m.d.comb += [cd.clk.eq(ClockSignal("sync")), cd.rst.eq(ResetSignal("sync"))]
-            else:
-                m.d.comb += [cd.clk.eq(getattr(self, f"{name}_clk")),
-                             cd.rst.eq(getattr(self, f"{name}_rst"))]
+            m.d.comb += [cd.clk.eq(getattr(self, f"{name}_clk")),
+                         cd.rst.eq(getattr(self, f"{name}_rst"))]
 
         # --- the pipeline: camera pins to one record per frame ---------------------------
         m.submodules.pipeline = pipe = self.pipeline

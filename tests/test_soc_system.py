@@ -39,7 +39,7 @@ def test_core_ports_are_the_documented_ones():
 
 @pytest.mark.parametrize("kwargs, word", [
     (dict(sync_freq=0), "sync_freq"), (dict(config_freq=1e12), "config_freq"),
-    (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"), (dict(one_clock=1), "one_clock"),
+    (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"),
 ])
 def test_core_rejects_bad_parameters(kwargs, word):
     args = dict(width=W, height=H, params=SMALL)
