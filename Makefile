@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench clean model hps-bundle deploy
+.PHONY: demo test bench timing clean model hps-bundle deploy
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,14 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_model.py
 	$(BIN)/python benchmarks/stereo_quality.py
+
+# Routed timing on an ECP5 (nextpnr): every block, the whole matcher, the whole
+# pipeline (about an hour and a half on this machine; figures in hdl/README.md).
+timing: $(STAMP)
+	mkdir -p build
+	$(BIN)/stereogest timing --block all --json build/timing_blocks.json
+	$(BIN)/stereogest timing --block matcher --json build/timing_matcher.json
+	$(BIN)/stereogest timing --block pipeline --json build/timing_pipeline.json
 
 # The HPS application and its trained model, as deployed to the board.
 MODEL  ?= sw_hps/models/thesis7.json

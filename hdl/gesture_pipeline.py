@@ -159,6 +159,19 @@ class GesturePipeline(wiring.Component):
             "threshold": In(bits_for(p.max_disparity), init=p.lrcc_threshold),
         })
 
+    @property
+    def stages(self) -> dict:
+        """The stage components by name, in dataflow order: the ones
+        :meth:`elaborate` wires (a caller may elaborate one alone instead, as the
+        place-and-route check does)."""
+        return {"capture_left": self._capture[0], "capture_right": self._capture[1],
+                "synchronizer": self._sync,
+                "to444_left": self._to444[0], "to444_right": self._to444[1],
+                "median_left": self._median[0], "median_right": self._median[1],
+                "matcher": self._matcher, "segmentation": self._segment,
+                "opening": self._opening, "centroid": self._centroid,
+                "moving_average": self._average, "spotting": self._spotting}
+
     def elaborate(self, platform):
         m = Module()
         # --- capture (camera clock domains) and synchroniser -------------------------

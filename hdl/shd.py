@@ -76,6 +76,12 @@ class SumOfHammingDistances(wiring.Component):
                                              always_ready=True)),
         })
 
+    @property
+    def stages(self) -> dict:
+        """Its parts by name: the column and window sums and one of the
+        ``2 * max_disparity`` Hamming units (all alike)."""
+        return {"columns": self._columns, "windows": self._windows, "hamming": self._ham[0][0]}
+
     def elaborate(self, platform):
         m = Module()
         nd, cb = self.max_disparity, self.census_bits

@@ -144,6 +144,16 @@ class StereoMatcher(wiring.Component):
         self._stages(m, beat, first, left, right)
         return m
 
+    @property
+    def stages(self) -> dict:
+        """The stage components by name, in dataflow order (the SHD's own parts
+        in ``shd.stages``)."""
+        stages = {"census_left": self._census[0], "census_right": self._census[1],
+                  "shd": self._shd, "select": self._select, "check": self._check}
+        if self._median is not None:
+            stages["median"] = self._median
+        return stages
+
     def _count_and_flush(self, m, beat, first, left, right):
         """Self-contained mode: count the frame's pixels, then run ``flush`` beats."""
         w, h = self.width, self.height

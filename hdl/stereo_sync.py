@@ -2,7 +2,7 @@
 """Stereo frame synchroniser (thesis §5.3, Table 10).
 
 The two cameras run on their own pixel clocks and start their frames at different
-times. Each capture writes its words into an ``AsyncFIFO`` (write side in the
+times. Each capture writes its words into an ``AsyncFIFOBuffered`` (write side in the
 camera's domain, read side in ``sync``); the synchroniser pairs the two streams
 frame by frame:
 
@@ -48,7 +48,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
-from amaranth.lib.fifo import AsyncFIFO
+from amaranth.lib.fifo import AsyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
 from ._util import check_geometry, check_int
@@ -81,7 +81,8 @@ class StereoSynchronizer(wiring.Component):
     width : int in [8, 4096], even
     height : int in [2, 4096]
     fifo_depth : power of two in [16, 65536]
-        Words of each AsyncFIFO (absorbs the cameras' phase difference).
+        Words of each FIFO's RAM (absorbs the cameras' phase difference); one
+        more word waits in the FIFO's head register.
     threshold : int in [1, min(fifo_depth, width*height)]
         N of the thesis: words both FIFOs must hold before a frame starts.
     max_skew : int in [1, fifo_depth], default ``fifo_depth // 2``
@@ -109,8 +110,9 @@ class StereoSynchronizer(wiring.Component):
     Timing
     ------
     A pixel beat leaves one ``sync`` cycle after both words are at the FIFO heads
-    (registered output); a written word reaches its FIFO's head after the FIFO's
-    two-flop Gray-pointer synchroniser (two ``sync`` clock edges). The ``sync``
+    (registered output); a written word reaches its FIFO's head register after
+    the FIFO's two-flop Gray-pointer synchroniser and the RAM read (three
+    ``sync`` clock edges). The ``sync``
     clock must pop faster than a camera writes (one word per two PCLK cycles while
     HREF is high), or the FIFOs fill and the captures overrun.
     """
@@ -149,7 +151,11 @@ class StereoSynchronizer(wiring.Component):
         heads = []
         for side, port, domain in (("left", self.i_left, self.left_domain),
                                    ("right", self.i_right, self.right_domain)):
-            fifo = AsyncFIFO(width=layout.size, depth=depth, r_domain="sync", w_domain=domain)
+            # buffered: the head word comes from a register, not from the RAM's read
+            # port, so the marker checks that steer r_en start at a flip-flop
+            # (routed: 10.3 ns through the RAM, see hdl/README.md)
+            fifo = AsyncFIFOBuffered(width=layout.size, depth=depth + 1, r_domain="sync",
+                                     w_domain=domain)
             m.submodules[f"fifo_{side}"] = fifo
             m.d.comb += [fifo.w_data.eq(port.payload), fifo.w_en.eq(port.valid),
                          port.ready.eq(fifo.w_rdy)]
@@ -164,12 +170,13 @@ class StereoSynchronizer(wiring.Component):
         at_first = Signal()
         at_last = Signal()
         flush_left = Signal(range(self.flush + 1))
-        # FIFO levels: the decisions below use them one clock late (registered
-        # after the Gray-code decode), which only delays a start or a drop by a cycle.
+        # FIFO levels (AsyncFIFOBuffered registers them after the Gray-code decode):
+        # the decisions below use them two clocks late, which only delays a start
+        # or a drop; depth + 1 words is full (the RAM and the head register).
         full_l, full_r, ahead_l, ahead_r, filled = (Signal(name=n) for n in (
             "full_l", "full_r", "ahead_l", "ahead_r", "filled"))
         m.d.sync += [
-            full_l.eq(fl.r_level == depth), full_r.eq(fr.r_level == depth),
+            full_l.eq(fl.r_level == depth + 1), full_r.eq(fr.r_level == depth + 1),
             ahead_l.eq(fl.r_level > fr.r_level + self.max_skew),
             ahead_r.eq(fr.r_level > fl.r_level + self.max_skew),
             filled.eq((fl.r_level >= self.threshold) & (fr.r_level >= self.threshold)),

@@ -12,7 +12,7 @@ import sys
 
 #: Subcommand modules, in the order a user meets them.
 COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures", "train", "classify",
-            "resources", "generate")
+            "resources", "timing", "generate")
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

