@@ -121,7 +121,7 @@ def synthesis():
         out[name] = r
         print(f"  {name:16s} LUTs {r['luts']:6d}  FFs {r['ffs']:6d}  M10K {r['m10k']:3d}  "
               f"ltp {r['ltp']:3d}  LUT levels {r['levels']}  carry cells {r['carry_cells']:3d}"
-              f"  est. {r['delay_ns']:5.2f} ns ({r['fmax_mhz']} MHz)", flush=True)
+              f"  logic depth {r['depth_ns']:5.2f} ns", flush=True)
     return out
 
 

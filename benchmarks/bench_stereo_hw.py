@@ -129,7 +129,7 @@ def synthesis(yosys):
         out[name] = r
         print(f"  {name:12s} LUTs {r['luts']:6d}  FFs {r['ffs']:6d}  M10K {r['m10k']:3d}  "
               f"ltp {r['ltp']:3d}  LUT levels {r['levels']}  carry cells {r['carry_cells']:3d}"
-              f"  est. {r['delay_ns']:5.2f} ns ({r['fmax_mhz']} MHz)", flush=True)
+              f"  logic depth {r['depth_ns']:5.2f} ns", flush=True)
     t = time.perf_counter()
     full = synthesize(StereoMatcher(**THESIS), "stereo_matcher", yosys,
                       keep=ROOT / "build" / "synth" / "stereo_matcher")
@@ -170,7 +170,7 @@ def main(argv=None):
         full = result["synthesis"]["stereo_matcher"]
         print(f"  whole matcher: LUTs {full['luts']} (ALMs about {full['alm_estimate']}), "
               f"FFs {full['ffs']}, M10K {full['m10k']}, "
-              f"MLAB {full['mlab']}; est. worst path {full['delay_ns']} ns")
+              f"MLAB {full['mlab']}; logic depth {full['depth_ns']} ns")
         print(f"  thesis Table 23: {TABLE23['alms']} ALMs, {TABLE23['registers']} registers, "
               f"{TABLE23['memory_bits']} memory bits")
     result["table23"] = TABLE23

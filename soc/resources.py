@@ -86,7 +86,7 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
             "mlab": "mlab"}
     ours = {key: sum(s[field] for s in synth.values()) for key, field in keys.items()}
     ours["memory_bits"] = sum(mem.values())
-    worst = max(synth.values(), key=lambda s: s.get("delay_ns") or 0)
+    worst = max(synth.values(), key=lambda s: s.get("depth_ns") or 0)
     share = {key: round(100 * ours[key] / DEVICE[key], 1)
              for key in ("alms", "registers", "m10k", "memory_bits")}
     return {
@@ -100,8 +100,8 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
         "device_use_percent": share,
         "fits": all(ours[key] <= DEVICE[key] for key in ("alms", "registers", "m10k")),
         "memories": dict(sorted(mem.items(), key=lambda kv: -kv[1])),
-        "logic_depth": {"lut_levels": worst.get("levels"), "delay_ns": worst.get("delay_ns"),
+        "logic_depth": {"lut_levels": worst.get("levels"), "depth_ns": worst.get("depth_ns"),
                         "note": "the worst part; yosys cell delays + 600 ps per net; "
-                                "no place and route"},
+                                "logic depth, not timing (routed: stereogest timing)"},
         "seconds": round(time.perf_counter() - start, 1),
     }

@@ -28,7 +28,7 @@ def test_estimate_sets_the_figures_beside_table_23_and_the_device(monkeypatch):
     def fake_synthesize(dut, name, yosys, autoname=True):
         calls.append(name)
         return {"alm_estimate": 2_000, "luts": 3_000, "ffs": 8_000, "m10k": 50 + len(calls),
-                "mlab": 1, "tool": "yosys", "levels": len(calls), "delay_ns": float(len(calls))}
+                "mlab": 1, "tool": "yosys", "levels": len(calls), "depth_ns": float(len(calls))}
 
     monkeypatch.setattr(hdl.synthesis, "find_yosys", lambda: ["yosys"])
     monkeypatch.setattr(hdl.synthesis, "synthesize", fake_synthesize)
