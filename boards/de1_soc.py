@@ -1,6 +1,7 @@
 """The Terasic DE1-SoC as the recogniser uses it: amaranth-boards'
 ``DE1SoCPlatform`` plus the VGA DAC, the two OV5642 cameras on the GPIO
-headers, the RN-42 Bluetooth UART and the HPS DDR3 pins.
+headers, the RN-42 Bluetooth UART, the HPS DDR3 pins and the HPS peripheral
+pins (``hps_io``).
 
 Board functions (our Table 22; the thesis gives SW[9:7] and LEDR[4])
 --------------------------------------------------------------------
@@ -57,9 +58,15 @@ PWDN   18    15           AG17   AK28
 The RN-42 UART shares GPIO_0: FPGA TX on pin 39 (GPIO_0[34], AG18) to the
 module's RX, FPGA RX on pin 40 (GPIO_0[35], AJ21) from the module's TX.
 
+The PCLK pins (header pin 1, AC18 and AB17) are ordinary I/O, not dedicated
+clock inputs of the Cyclone V: the Quartus bundle promotes each PCLK onto a
+global clock network (``GLOBAL_SIGNAL "GLOBAL CLOCK"``), and the fitter's
+warning about a clock driven from a non-dedicated pin is expected.
+
 Pin sources: the FPGA pins of the headers are amaranth-boards' connectors
-(the DE1-SoC manual's GPIO table); VGA and HPS DDR3 pins and I/O standards are
-those of the DE1-SoC manual and Terasic's golden-top pin assignments.
+(the DE1-SoC manual's GPIO table); VGA, HPS DDR3 and HPS peripheral pins and
+I/O standards are those of the DE1-SoC manual and Terasic's golden-top pin
+assignments.
 """
 from __future__ import annotations
 
@@ -68,7 +75,7 @@ from amaranth_boards.de1_soc import DE1SoCPlatform
 from amaranth_boards.resources import UARTResource
 
 __all__ = ["StereogestDE1SoCPlatform", "CAMERA_PINS", "CAMERA_HEADERS", "UART_PINS",
-           "PCLK_MAX_FREQUENCY", "header_gpio_index"]
+           "PCLK_MAX_FREQUENCY", "HPS_IO_PINS", "header_gpio_index"]
 
 #: Header pin (1-40) of every camera signal; ``data`` lists D2 .. D9 (LSB first).
 CAMERA_PINS = {
@@ -83,6 +90,45 @@ UART_PINS = {"tx": "39", "rx": "40"}
 #: Clock constraint of the camera PCLK inputs (Hz). An upper bound: the OV5642
 #: at 24 MHz XCLK and the 640x480 table clocks out well below it.
 PCLK_MAX_FREQUENCY = 50e6
+
+#: The HPS peripheral pins the board wires (dedicated HPS I/O, 3.3 V): the
+#: ``hps_io`` role of the Platform Designer HPS (``hps_io_<role>``) -> (FPGA
+#: ball, direction), for the peripherals of Terasic's DE1-SoC reference design:
+#: EMAC1 RGMII to the KSZ9021 PHY, QSPI flash, SD card (4 bit), USB1 ULPI to the
+#: USB3300, SPIM1 (LTC header), UART0 (USB-UART), I2C0 (accelerometer, audio
+#: codec, video in), I2C1 (LTC header) and seven GPIOs (GPIO09 USB-UART
+#: CONV_USB_N, 35 PHY interrupt, 40 LTC GPIO, 48 I2C control, 53 HPS_LED,
+#: 54 HPS_KEY, 61 accelerometer interrupt).
+HPS_IO_PINS = {
+    "emac1_inst_TX_CLK": ("H19", "o"), "emac1_inst_TXD0": ("F20", "o"),
+    "emac1_inst_TXD1": ("J19", "o"), "emac1_inst_TXD2": ("F21", "o"),
+    "emac1_inst_TXD3": ("F19", "o"), "emac1_inst_RXD0": ("A21", "i"),
+    "emac1_inst_MDIO": ("E21", "io"), "emac1_inst_MDC": ("B21", "o"),
+    "emac1_inst_RX_CTL": ("K17", "i"), "emac1_inst_TX_CTL": ("A20", "o"),
+    "emac1_inst_RX_CLK": ("G20", "i"), "emac1_inst_RXD1": ("B20", "i"),
+    "emac1_inst_RXD2": ("B18", "i"), "emac1_inst_RXD3": ("D21", "i"),
+    "qspi_inst_IO0": ("C20", "io"), "qspi_inst_IO1": ("H18", "io"),
+    "qspi_inst_IO2": ("A19", "io"), "qspi_inst_IO3": ("E19", "io"),
+    "qspi_inst_SS0": ("A18", "o"), "qspi_inst_CLK": ("D19", "o"),
+    "sdio_inst_CMD": ("F18", "io"), "sdio_inst_D0": ("G18", "io"),
+    "sdio_inst_D1": ("C17", "io"), "sdio_inst_CLK": ("A16", "o"),
+    "sdio_inst_D2": ("D17", "io"), "sdio_inst_D3": ("B16", "io"),
+    "usb1_inst_D0": ("E16", "io"), "usb1_inst_D1": ("G16", "io"),
+    "usb1_inst_D2": ("D16", "io"), "usb1_inst_D3": ("D14", "io"),
+    "usb1_inst_D4": ("A15", "io"), "usb1_inst_D5": ("C14", "io"),
+    "usb1_inst_D6": ("D15", "io"), "usb1_inst_D7": ("M17", "io"),
+    "usb1_inst_CLK": ("N16", "i"), "usb1_inst_STP": ("C15", "o"),
+    "usb1_inst_DIR": ("E14", "i"), "usb1_inst_NXT": ("A14", "i"),
+    "spim1_inst_CLK": ("C23", "o"), "spim1_inst_MOSI": ("D22", "o"),
+    "spim1_inst_MISO": ("E24", "i"), "spim1_inst_SS0": ("D24", "o"),
+    "uart0_inst_RX": ("B25", "i"), "uart0_inst_TX": ("C25", "o"),
+    "i2c0_inst_SDA": ("C24", "io"), "i2c0_inst_SCL": ("E23", "io"),
+    "i2c1_inst_SDA": ("A25", "io"), "i2c1_inst_SCL": ("H23", "io"),
+    "gpio_inst_GPIO09": ("B15", "io"), "gpio_inst_GPIO35": ("C19", "io"),
+    "gpio_inst_GPIO40": ("H17", "io"), "gpio_inst_GPIO48": ("B26", "io"),
+    "gpio_inst_GPIO53": ("A24", "io"), "gpio_inst_GPIO54": ("G21", "io"),
+    "gpio_inst_GPIO61": ("B22", "io"),
+}
 
 _LVTTL = Attrs(io_standard="3.3-V LVTTL")
 # open-drain lines and the idle-high UART input get the FPGA's weak pull-up as
@@ -159,6 +205,13 @@ _HPS_DDR3 = Resource(
 )
 
 
+_HPS_IO = Resource(
+    "hps_io", 0,
+    *[Subsignal(role, Pins(pin, dir=direction)) for role, (pin, direction) in HPS_IO_PINS.items()],
+    _LVTTL,
+)
+
+
 class StereogestDE1SoCPlatform(DE1SoCPlatform):
     """DE1-SoC with the recogniser's peripherals (see the module docstring).
 
@@ -166,7 +219,9 @@ class StereogestDE1SoCPlatform(DE1SoCPlatform):
     blank_n, sync_n, clk), ``ov5642`` 0 (right, GPIO_0) and 1 (left, GPIO_1)
     with pclk (clock-constrained), xclk, vsync, href, data (D[9:2]), scl, sda,
     reset_n, pwdn, ``uart`` 0 (tx, rx to the RN-42 on GPIO_0) and ``hps_ddr3``
-    0 (the HPS SDRAM pins, for the Platform Designer system's memory conduit).
+    0 (the HPS SDRAM pins, for the Platform Designer system's memory conduit)
+    and ``hps_io`` 0 (the HPS peripheral pins, :data:`HPS_IO_PINS`, for its
+    ``hps_io`` conduit).
     The board's ``led``, ``button`` and ``switch`` resources are LEDR, KEY
     (inverted: 1 = pressed) and SW.
     """
@@ -178,4 +233,5 @@ class StereogestDE1SoCPlatform(DE1SoCPlatform):
         UARTResource(0, rx=UART_PINS["rx"], tx=UART_PINS["tx"], conn=("gpio", 0),
                      attrs=_PULLED_UP),
         _HPS_DDR3,
+        _HPS_IO,
     ]

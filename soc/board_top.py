@@ -10,7 +10,9 @@ system ``soc_system`` (HPS + :class:`soc.core.StereogestCore`).
                       +--> config domain (50 MHz): the cameras' I2C masters
     ov5642 #1 PCLK ------> cam_left domain  (left camera, GPIO_1)
     ov5642 #0 PCLK ------> cam_right domain (right camera, GPIO_0)
-    KEY[0] or PLL unlocked --> reset of every domain (synchronised per domain)
+    KEY[0], PLL unlocked or the HPS's h2f_reset --> reset of every domain
+                                                 (synchronised per domain)
+    HPS peripheral pins <--> soc_system hps_io (dedicated HPS I/O, no FPGA logic)
 
 The core sits inside ``soc_system``; its conduits come out as ``soc_system``
 ports named by :func:`soc.platform_designer.exported_port_name`, and this top
@@ -25,12 +27,19 @@ from amaranth.hdl import Cat, ClockDomain, ClockSignal, Const, Elaboratable, Ins
 from amaranth.lib import io
 from amaranth.lib.cdc import ResetSynchronizer
 
-from .platform_designer import SYSTEM_NAME, conduit_map, core_interfaces
+from boards.de1_soc import HPS_IO_PINS
 
-__all__ = ["BoardTop", "PLL_REFERENCE_HZ"]
+from .clocks import CONFIG_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
+from .platform_designer import H2F_RESET_PORT, HPS_IO_PORTS, SYSTEM_NAME, conduit_map, \
+    core_interfaces
+
+__all__ = ["BoardTop", "PLL_REFERENCE_HZ", "PLL_OUTPUTS"]
 
 #: The board oscillator feeding the PLL and the ``config`` domain.
-PLL_REFERENCE_HZ = 50e6
+PLL_REFERENCE_HZ = CONFIG_HZ
+#: Clock domain of each PLL output, in output order (the constraints name the
+#: PLL's clocks by this index).
+PLL_OUTPUTS = ("sync", "vga", "xclk")
 
 
 def _mhz(hz: float) -> str:
@@ -54,8 +63,9 @@ class BoardTop(Elaboratable):
         of the emitted core): the board wires each conduit port by name.
     sync_hz, vga_hz, xclk_hz : float
         PLL outputs: pipeline/bus clock (fed to ``soc_system``), VGA pixel
-        clock and camera XCLK. Defaults 100, 25 and 24 MHz, all integer
-        divisions of a 600 MHz VCO from the 50 MHz oscillator.
+        clock and camera XCLK. Defaults from :mod:`soc.clocks` (100, 25 and
+        24 MHz, all integer divisions of a 600 MHz VCO from the 50 MHz
+        oscillator).
 
     Raises
     ------
@@ -64,8 +74,8 @@ class BoardTop(Elaboratable):
         conduit port this board does not know or with an unexpected direction.
     """
 
-    def __init__(self, core_ports, *, sync_hz: float = 100e6, vga_hz: float = 25e6,
-                 xclk_hz: float = 24e6):
+    def __init__(self, core_ports, *, sync_hz: float = SYNC_HZ, vga_hz: float = VGA_HZ,
+                 xclk_hz: float = XCLK_HZ):
         self.core_ports = [(str(n), str(d), int(w)) for n, d, w in core_ports]
         core_interfaces(self.core_ports)        # validates the port list early
         self.sync_hz = _check_hz("sync_hz", sync_hz, 10e6, 200e6)
@@ -79,40 +89,44 @@ class BoardTop(Elaboratable):
         # --- clocks ---------------------------------------------------------------------
         clk50_pin = platform.request("clk50", 0, dir="-")
         m.submodules.clk50_buf = clk50_buf = io.Buffer("i", clk50_pin)
-        outclk, locked, fboutclk = Signal(3), Signal(), Signal()
+        outclk, locked, fboutclk = Signal(len(PLL_OUTPUTS)), Signal(), Signal()
+        frequency = {"sync": self.sync_hz, "vga": self.vga_hz, "xclk": self.xclk_hz}
+        outputs = {}
+        for n, domain in enumerate(PLL_OUTPUTS):
+            outputs.update({f"p_output_clock_frequency{n}": _mhz(frequency[domain]),
+                            f"p_phase_shift{n}": "0 ps", f"p_duty_cycle{n}": 50})
         m.submodules.pll = Instance(
             "altera_pll",
             p_fractional_vco_multiplier="false",
             p_reference_clock_frequency=_mhz(PLL_REFERENCE_HZ),
             p_operation_mode="direct",
-            p_number_of_clocks=3,
-            p_output_clock_frequency0=_mhz(self.sync_hz), p_phase_shift0="0 ps",
-            p_duty_cycle0=50,
-            p_output_clock_frequency1=_mhz(self.vga_hz), p_phase_shift1="0 ps",
-            p_duty_cycle1=50,
-            p_output_clock_frequency2=_mhz(self.xclk_hz), p_phase_shift2="0 ps",
-            p_duty_cycle2=50,
+            p_number_of_clocks=len(PLL_OUTPUTS),
+            **outputs,
             p_pll_type="General", p_pll_subtype="General",
             i_refclk=clk50_buf.i, i_rst=Const(0), i_fbclk=Const(0),
             o_outclk=outclk, o_locked=locked, o_fboutclk=fboutclk)
+        pll_clock = {domain: outclk[n] for n, domain in enumerate(PLL_OUTPUTS)}
         clk_sync = Signal()
-        m.d.comb += clk_sync.eq(outclk[0])
+        m.d.comb += clk_sync.eq(pll_clock["sync"])
 
         cams = {"right": platform.request("ov5642", 0, dir="-"),
                 "left": platform.request("ov5642", 1, dir="-")}
-        clocks = {"vga": outclk[1], "xclk": outclk[2], "config": clk50_buf.i}
+        clocks = {"vga": pll_clock["vga"], "xclk": pll_clock["xclk"],
+                  "config": clk50_buf.i}
         for side, cam in cams.items():
             m.submodules[f"{side}_pclk_buf"] = pclk = io.Buffer("i", cam.pclk)
             clocks[f"cam_{side}"] = pclk.i
 
-        # --- reset: KEY[0] (active low on the board, inverted by the resource) ----------
+        # --- reset: KEY[0] (active low on the board, inverted by the resource), the
+        # PLL's lock and the HPS's reset of the FPGA side (h2f_reset, active low) ------
         key = [platform.request("button", i, dir="-") for i in range(3)]
         key_bufs = []
         for i, pin in enumerate(key):
             m.submodules[f"key{i}_buf"] = buf = io.Buffer("i", pin)
             key_bufs.append(buf.i)
+        h2f_reset_n = Signal()
         board_reset = Signal()
-        m.d.comb += board_reset.eq(key_bufs[0] | ~locked)
+        m.d.comb += board_reset.eq(key_bufs[0] | ~locked | ~h2f_reset_n)
         for name, clk in clocks.items():
             m.domains += ClockDomain(name)
             m.d.comb += ClockSignal(name).eq(clk)
@@ -196,7 +210,13 @@ class BoardTop(Elaboratable):
             "io_memory_mem_dq": ddr.dq.io, "io_memory_mem_dqs": ddr.dqs_p.io,
             "io_memory_mem_dqs_n": ddr.dqs_n.io, "o_memory_mem_odt": ddr.odt.io,
             "o_memory_mem_dm": ddr.dm.io, "i_memory_oct_rzqin": ddr.rzq.io,
+            f"o_{H2F_RESET_PORT[0]}": h2f_reset_n,
         }
+        # the HPS peripheral pins go straight to the HPS's dedicated I/O
+        hps_io = platform.request("hps_io", 0, dir="-")
+        prefix = {"input": "i", "output": "o", "inout": "io"}
+        for role, (sys_port, direction, _) in zip(HPS_IO_PINS, HPS_IO_PORTS):
+            ports[f"{prefix[direction]}_{sys_port}"] = getattr(hps_io, role).io
         for core_port, (sys_port, direction, width) in conduit_map(self.core_ports).items():
             wire = Signal(width, name=f"core_{core_port}")
             if direction == "input":

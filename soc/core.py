@@ -27,6 +27,8 @@ input      ``stage_select`` (SW[9:7]) VGA stage, :data:`VIDEO_STAGES`;
 """
 from __future__ import annotations
 
+import re
+
 from amaranth.hdl import (Cat, ClockDomain, DomainRenamer, Module,
                           Shape, Signal)
 from amaranth.lib import cdc, wiring
@@ -36,14 +38,16 @@ from hdl._util import check_geometry
 from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
 from sim.model.pipeline import PipelineParams
 
+from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
-from .frame_buffer import FrameBuffer
+from .frame_buffer import NO_INIT_ATTR, FrameBuffer
 from .ov5642_config import Ov5642Config
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
 
 __all__ = ["StereogestCore", "CameraPins", "I2cPins", "CORE_NAME", "CLOCK_DOMAINS",
-           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "emit_core_verilog", "VIDEO_STAGES"]
+           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "emit_core_verilog", "strip_zero_init",
+           "VIDEO_STAGES"]
 
 #: Verilog module name of the core (the ``_hw.tcl`` component wraps it).
 CORE_NAME = "stereogest_core"
@@ -79,9 +83,11 @@ class StereogestCore(wiring.Component):
     params : sim.model.pipeline.PipelineParams
         Algorithm parameters (thesis run-time values by default).
     sync_freq : float
-        Pipeline and bus clock in Hz (thesis 100 MHz); sets the UART divisor.
+        Pipeline and bus clock in Hz (:data:`soc.clocks.SYNC_HZ`, the thesis'
+        100 MHz); sets the UART divisor.
     config_freq : float
-        Clock of the ``config`` domain in Hz (the board's 50 MHz).
+        Clock of the ``config`` domain in Hz (:data:`soc.clocks.CONFIG_HZ`, the
+        board's 50 MHz).
     vga_mode : soc.vga_timing.VgaMode
         Raster of the VGA output (640 x 480 at 60 Hz).
     fifo_depth : int
@@ -108,8 +114,8 @@ class StereogestCore(wiring.Component):
     """
 
     def __init__(self, width: int = 640, height: int = 480,
-                 params: PipelineParams = PipelineParams(), *, sync_freq: float = 100e6,
-                 config_freq: float = 50e6, vga_mode: VgaMode = VGA_640x480_60,
+                 params: PipelineParams = PipelineParams(), *, sync_freq: float = SYNC_HZ,
+                 config_freq: float = CONFIG_HZ, vga_mode: VgaMode = VGA_640x480_60,
                  fifo_depth: int = 512, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
                  config_table=None):
@@ -207,6 +213,31 @@ class StereogestCore(wiring.Component):
 
 
 def emit_core_verilog(core: StereogestCore) -> str:
-    """Verilog text of the core as module :data:`CORE_NAME`."""
+    """Verilog text of the core as module :data:`CORE_NAME`.
+
+    Memories marked :data:`soc.frame_buffer.NO_INIT_ATTR` (their contents
+    before the first write do not matter) get no ``initial`` block: Amaranth
+    writes one assignment per word (307,200 for the frame buffer), and a
+    Cyclone V block RAM without initial contents powers up at zero anyway,
+    as Verilator's model does.
+    """
     from amaranth.back import verilog
-    return verilog.convert(core, name=CORE_NAME, emit_src=False)
+    text = verilog.convert(core, name=CORE_NAME, emit_src=False)
+    return strip_zero_init(text)
+
+
+def strip_zero_init(text: str) -> str:
+    """``text`` without the all-zero ``initial`` blocks of the memories that
+    carry :data:`soc.frame_buffer.NO_INIT_ATTR`; an initialiser with any
+    nonzero word is kept."""
+    block = re.compile(
+        r"(\(\* " + re.escape(NO_INIT_ATTR) + r' = "1" \*\)\n\s*reg \[[^\]]*\] (\S+) \[[^\]]*\];\n)'
+        r"\s*initial begin\n((?:\s*\S+\[\d+\] = \d+'h0+;\n)*)\s*end\n")
+
+    def keep_declaration(match):
+        name = match[2]
+        lines = match[3].split(";")[:-1]
+        if not all(line.strip().startswith(f"{name}[") for line in lines):
+            return match[0]
+        return match[1]
+    return block.sub(keep_declaration, text)

@@ -16,11 +16,14 @@ from sim.model._check import check_int
 
 from .vga_timing import VGA_640x480_60, VgaMode, VgaTiming
 
-__all__ = ["FrameBuffer", "VgaOutputSignature", "READ_LATENCY"]
+__all__ = ["FrameBuffer", "VgaOutputSignature", "READ_LATENCY", "NO_INIT_ATTR"]
 
 #: Pixel clocks from the raster counters to the registered VGA outputs:
 #: one for the block RAM read, one for the output registers.
 READ_LATENCY = 2
+#: Attribute of a memory whose contents before the first write do not matter:
+#: :func:`soc.core.emit_core_verilog` writes no initialiser for it.
+NO_INIT_ATTR = "stereogest_no_init"
 
 
 class VgaOutputSignature(wiring.Signature):
@@ -122,7 +125,10 @@ class FrameBuffer(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         pb, depth = self.pixel_bits, self.depth
-        m.submodules.memory = mem = memory.Memory(shape=unsigned(pb), depth=depth, init=[])
+        # what is shown before the first frame is written does not matter (the
+        # simulators start it at zero); the Verilog skips the 307,200-word initialiser
+        m.submodules.memory = mem = memory.Memory(shape=unsigned(pb), depth=depth, init=[],
+                                                  attrs={NO_INIT_ATTR: "1"})
         write = mem.write_port()
         read = mem.read_port(domain="vga")
 

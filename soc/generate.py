@@ -7,7 +7,7 @@ The bundle holds:
 ==============================  ===================================================
 ``stereogest.v``                board top (:class:`soc.board_top.BoardTop`), Amaranth
 ``stereogest.qsf`` / ``.qpf``   Quartus project: device, every pin, the system's QIP
-``stereogest.sdc``              clocks: 50 MHz, both camera PCLKs, PLL outputs derived
+``stereogest.sdc``              clocks, clock groups, AsyncFIFO pointer skew, I/O delays
 ``stereogest.srf``              suppressed Quartus messages (Amaranth's list)
 ``stereogest_core.v``           the core (:class:`soc.core.StereogestCore`)
 ``stereogest_core_hw.tcl``      its Platform Designer component
@@ -25,16 +25,21 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 import shutil
 import tempfile
 import time
 from pathlib import Path
 
+from boards.de1_soc import CAMERA_HEADERS
+
+from .clocks import CONFIG_HZ, PCLK_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
 from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfaces, hw_tcl, \
     system_tcl, verilog_ports
 
 __all__ = ["generate", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
-           "is_bundle"]
+           "is_bundle", "GrayCrossing", "async_fifo_crossings", "sdc_constraints",
+           "pll_clock_name", "OV5642_DVP", "ADV7123", "SYSTEM_INSTANCE"]
 
 #: Quartus project (and top-level module) name.
 PROJECT = "stereogest"
@@ -104,8 +109,8 @@ def _frequency(name, value, low, high) -> float:
     return float(value)
 
 
-def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = 100e6,
-             vga_hz: float = 25e6, xclk_hz: float = 24e6, progress=None) -> BundleInfo:
+def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
+             vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
 
     Parameters
@@ -117,7 +122,7 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = 1
         Frame size of the pipeline (the cameras' registers set 640 x 480).
     sync_hz, vga_hz, xclk_hz : float
         PLL outputs: pipeline/bus clock, VGA pixel clock, camera XCLK
-        (defaults 100, 25 and 24 MHz).
+        (defaults from :mod:`soc.clocks`: 100, 25 and 24 MHz).
     progress : callable, optional
         Called with one-line progress messages.
 
@@ -157,12 +162,16 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = 1
     say("elaborating the board top ...")
     top = BoardTop(ports, sync_hz=sync_hz, vga_hz=vga_hz, xclk_hz=xclk_hz)
     platform = StereogestDE1SoCPlatform()
-    plan = platform.build(top, name=PROJECT, do_build=False, add_settings=_qsf_settings(),
-                          add_constraints=_sdc_constraints(sync_hz, vga_hz, xclk_hz))
+    plan = platform.build(top, name=PROJECT, do_build=False, add_settings=_qsf_settings())
     for name in _AMARANTH_SCRIPTS:
         plan.files.pop(name, None)
 
     files = dict(plan.files)
+    # the constraints need the top's ports and the core's FIFOs, known only now
+    top_ports = verilog_ports(files[f"{PROJECT}.v"], PROJECT)
+    files[f"{PROJECT}.sdc"] = files[f"{PROJECT}.sdc"].rstrip() + "\n" + sdc_constraints(
+        top_ports, async_fifo_crossings(core_v), sync_hz=sync_hz, vga_hz=vga_hz,
+        xclk_hz=xclk_hz)
     files[CORE_FILE] = core_v
     files[HW_TCL] = hw
     files[SYSTEM_TCL] = system
@@ -215,7 +224,7 @@ def _replace(new: Path, out: Path) -> None:
 
 
 def _qsf_settings() -> str:
-    return "\n".join([
+    lines = [
         'set_global_assignment -name FAMILY "Cyclone V"',
         f"set_global_assignment -name SDC_FILE {PROJECT}.sdc",
         "# the HPS system from soc_system.tcl (qsys-generate writes the QIP); the QIP",
@@ -226,24 +235,245 @@ def _qsf_settings() -> str:
         f"# writes: quartus_sta -t {SYSTEM_NAME}/synthesis/submodules/"
         f"hps_sdram_p0_pin_assignments.tcl {PROJECT}",
         "set_global_assignment -name OPTIMIZE_MULTI_CORNER_TIMING ON",
-        "",
-    ])
-
-
-def _sdc_constraints(sync_hz, vga_hz, xclk_hz) -> str:
-    lines = [
-        f"# PLL outputs ({sync_hz / 1e6:g} MHz pipeline, {vga_hz / 1e6:g} MHz VGA, "
-        f"{xclk_hz / 1e6:g} MHz camera XCLK)",
-        "# from the 50 MHz clock above",
-        "derive_pll_clocks",
-        "derive_clock_uncertainty",
-        "# each camera's PCLK is unrelated to the board oscillator and to the other",
-        "# camera: the core crosses those domains through synchronisers and FIFOs",
+        "# metastability report for the synchronisers between the unrelated clocks",
+        "set_global_assignment -name SYNCHRONIZER_IDENTIFICATION AUTO",
+        "# the camera PCLK pins are not dedicated clock inputs: put each PCLK on a",
+        "# global clock network (the fitter warns about the non-dedicated pin)",
     ]
-    for number in (0, 1):
-        name = f"ov5642_{number}__pclk__io"
-        lines.append(f"set_clock_groups -asynchronous -group [get_clocks {{{name}}}]")
-    return "\n".join(lines) + "\n"
+    for number in sorted(CAMERA_HEADERS):
+        lines.append('set_instance_assignment -name GLOBAL_SIGNAL "GLOBAL CLOCK" '
+                     f"-to {_camera_port(number, 'pclk')}")
+    return "\n".join([*lines, ""])
+
+
+# ---- timing constraints ---------------------------------------------------------------
+
+#: Instance of ``soc_system`` in the board top (the core is
+#: ``SYSTEM_INSTANCE|stereogest_core_0|...`` in Quartus' hierarchy).
+SYSTEM_INSTANCE = "soc"
+#: OV5642 digital video port (ns): data, HREF and VSYNC change after PCLK's
+#: falling edge, valid at most ``pclk_to_data_max`` later (OmniVision's DVP
+#: timing table, tPDV <= 5 ns, tPHH/tPHL 0-5 ns); the board top samples them
+#: on the rising edge. Source and caveat in soc/README.md.
+OV5642_DVP = {"pclk_to_data_min": 0.0, "pclk_to_data_max": 5.0}
+#: ADV7123 video DAC (ns): data and control setup and hold to the rising edge
+#: of its CLOCK input (datasheet, 3.3 V: t6 = 0.2, t7 = 1.5).
+ADV7123 = {"setup": 0.2, "hold": 1.5}
+#: Name of the VGA DAC's clock as it leaves the FPGA (an inverted copy of the
+#: pixel clock, see :class:`soc.board_top.BoardTop`).
+DAC_CLOCK = "vga_dac_clk"
+#: Fraction of a clock period the Gray pointers may spend in skew and wire
+#: delay (Intel: "less than one launch / latch clock").
+GRAY_MARGIN = 0.8
+
+
+def pll_clock_name(domain: str) -> str:
+    """Clock that ``derive_pll_clocks`` creates on the PLL output of
+    ``domain`` (Quartus names it after the output counter's pin; ``?`` stands
+    for the brackets, which Tcl patterns would read as a character class)."""
+    from .board_top import PLL_OUTPUTS
+    if domain not in PLL_OUTPUTS:
+        raise ValueError(f"domain must be one of {PLL_OUTPUTS}, got {domain!r}")
+    return f"pll|general?{PLL_OUTPUTS.index(domain)}?.gpll~PLL_OUTPUT_COUNTER|divclk"
+
+
+def _camera_port(number: int, signal: str) -> str:
+    return f"ov5642_{number}__{signal}__io"
+
+
+def _domain_clocks() -> dict:
+    """SDC clock pattern of every clock domain of the top."""
+    clocks = {"config": "clk50_0__io"}
+    for number, (side, _) in CAMERA_HEADERS.items():
+        clocks[f"cam_{side}"] = _camera_port(number, "pclk")
+    for domain in ("sync", "vga", "xclk"):
+        clocks[domain] = pll_clock_name(domain)
+    return clocks
+
+
+@dataclasses.dataclass(frozen=True)
+class GrayCrossing:
+    """One Gray-coded pointer of an ``AsyncFIFO`` crossing clock domains.
+
+    Attributes
+    ----------
+    path : tuple of str
+        Instance path of the FIFO inside the core.
+    pointer : str
+        ``"produce"`` (write pointer to the read side) or ``"consume"``.
+    source, dest : str
+        Clock domains of the pointer register and of the synchroniser.
+    source_reg, dest_reg : str
+        The pointer register and the synchroniser's first stage, as
+        ``|``-separated names relative to the FIFO.
+    """
+
+    path: tuple
+    pointer: str
+    source: str
+    dest: str
+    source_reg: str
+    dest_reg: str
+
+    def pattern(self, reg: str) -> str:
+        """Quartus name pattern of ``reg`` in the bundle (every hierarchy level
+        may carry an ``entity:`` prefix, hence the ``*``)."""
+        *inner, name = reg.split("|")
+        levels = [SYSTEM_INSTANCE, CORE_INSTANCE, *self.path, *inner]
+        return "|".join(f"*{level}" for level in levels) + f"|{name}*"
+
+
+_MODULE = re.compile(r"^module\s+\\?(\S+)\s*\(([^)]*)\)", re.M)
+
+
+def _clock_domain(port: str) -> str:
+    return "sync" if port == "clk" else port[:-len("_clk")]
+
+
+def async_fifo_crossings(core_verilog: str) -> list:
+    """The Gray pointer crossings of every ``AsyncFIFO`` in the core's Verilog.
+
+    Amaranth names each module after its instance path (``core.a.b``) and an
+    ``AsyncFIFO`` synchronises its pointers in the submodules ``produce_cdc``
+    and ``consume_cdc`` (first stage ``stage0``) from the registers
+    ``produce_w_gry`` and ``consume_r_gry``.
+
+    Returns
+    -------
+    list of GrayCrossing
+    """
+    modules = {}
+    for match in _MODULE.finditer(core_verilog):
+        ports = [p.strip().lstrip("\\") for p in match[2].split(",")]
+        modules[match[1]] = [p for p in ports if p == "clk" or p.endswith("_clk")]
+    crossings = []
+    for name, clocks in modules.items():
+        parent, _, leaf = name.rpartition(".")
+        if leaf not in ("produce_cdc", "consume_cdc") or parent not in modules:
+            continue
+        pointer = leaf[:-len("_cdc")]
+        parent_clocks = modules[parent]
+        if len(clocks) != 1 or len(parent_clocks) != 2 or clocks[0] not in parent_clocks:
+            raise ValueError(f"AsyncFIFO {parent!r}: cannot tell its two clocks apart")
+        (source,) = set(parent_clocks) - set(clocks)
+        crossings.append(GrayCrossing(
+            path=tuple(parent.split(".")[1:]), pointer=pointer,
+            source=_clock_domain(source), dest=_clock_domain(clocks[0]),
+            source_reg="produce_w_gry" if pointer == "produce" else "consume_r_gry",
+            dest_reg=f"{leaf}|stage0"))
+    return crossings
+
+
+def sdc_constraints(top_ports, crossings, *, sync_hz: float = SYNC_HZ, vga_hz: float = VGA_HZ,
+                    xclk_hz: float = XCLK_HZ) -> str:
+    """The timing constraints after the clocks Amaranth declares (50 MHz
+    oscillator, both PCLKs).
+
+    Parameters
+    ----------
+    top_ports : list of (name, direction, width)
+        Ports of the board top; each gets a constraint or is a clock.
+    crossings : list of GrayCrossing
+        The AsyncFIFO pointers of the core (:func:`async_fifo_crossings`).
+    sync_hz, vga_hz, xclk_hz : float
+        PLL outputs.
+
+    Raises
+    ------
+    ValueError
+        For a top-level port this function does not know how to constrain.
+    """
+    from .board_top import PLL_OUTPUTS
+    periods = {domain: 1e9 / hz for domain, hz in {
+        "sync": sync_hz, "vga": vga_hz, "xclk": xclk_hz, "config": CONFIG_HZ,
+        **{f"cam_{side}": PCLK_HZ for side, _ in CAMERA_HEADERS.values()}}.items()}
+    clocks = _domain_clocks()
+    lines = [
+        "",
+        f"# PLL outputs from the 50 MHz clock above: "
+        + ", ".join(f"{n} {d} {1e3 / periods[d]:g} MHz" for n, d in enumerate(PLL_OUTPUTS)),
+        "derive_pll_clocks",
+        # the DAC samples on the rising edge of its clock pin, which carries the
+        # inverted pixel clock (DDR output register)
+        f"create_generated_clock -name {DAC_CLOCK} -invert "
+        f"-source [get_pins {{{pll_clock_name('vga')}}}] [get_ports {{vga_0__clk__io}}]",
+        "derive_clock_uncertainty",
+        "",
+        "# every domain is unrelated to every other: they meet only in synchronisers,",
+        "# AsyncFIFOs and the frame buffer's dual-clock RAM",
+        "set_clock_groups -asynchronous \\",
+    ]
+    groups = []
+    for domain in ("config", "sync", "vga", "xclk",
+                   *(f"cam_{side}" for side, _ in CAMERA_HEADERS.values())):
+        members = [clocks[domain]] + ([DAC_CLOCK] if domain == "vga" else [])
+        groups.append(f"    -group [get_clocks {{{' '.join(members)}}}]")
+    lines.append(" \\\n".join(groups))
+
+    lines += ["", "# AsyncFIFO Gray pointers: the clock groups cut their paths; the skew",
+              f"# between bits stays under {GRAY_MARGIN:g} launch period and the wire delay under",
+              f"# {GRAY_MARGIN:g} latch period, so the far side samples one pointer value or its",
+              "# successor (set_max_skew and set_net_delay still apply across clock groups)"]
+    for c in crossings:
+        src, dst = c.pattern(c.source_reg), c.pattern(c.dest_reg)
+        fifo = "/".join(c.path)
+        lines += [
+            f"# {fifo}: {c.pointer} pointer, {c.source} -> {c.dest}",
+            f"set_max_skew -from [get_keepers {{{src}}}] -to [get_keepers {{{dst}}}] "
+            f"{GRAY_MARGIN * periods[c.source]:.3f}",
+            f"set_net_delay -max -from [get_keepers {{{src}}}] -to [get_keepers {{{dst}}}] "
+            f"{GRAY_MARGIN * periods[c.dest]:.3f}",
+        ]
+
+    camera_inputs, vga_outputs, ddr = {}, [], []
+    false_from, false_to = [], []
+    for name, direction, width in top_ports:
+        pattern = name if width == 1 else f"{name}*"
+        camera = re.fullmatch(r"ov5642_(\d+)__(\w+)__io", name)
+        if name == "clk50_0__io" or (camera and camera[2] == "pclk") or name == "vga_0__clk__io":
+            continue                                    # clocks
+        if camera and camera[2] in ("vsync", "href", "data"):
+            camera_inputs.setdefault(int(camera[1]), []).append(pattern)
+        elif re.fullmatch(r"vga_0__(r|g|b|hs|vs|blank_n)__io", name):
+            vga_outputs.append(pattern)
+        elif name.startswith("hps_ddr3_0__"):
+            ddr.append(pattern)
+        elif camera or re.fullmatch(r"(button|switch|led)_\d+__io|uart_0__(tx|rx)__io|"
+                                    r"vga_0__sync_n__io|hps_io_0__\w+__io", name):
+            if direction in ("input", "inout"):
+                false_from.append(pattern)
+            if direction in ("output", "inout"):
+                false_to.append(pattern)
+        else:
+            raise ValueError(f"top-level port {name!r} has no timing rule")
+
+    dvp = OV5642_DVP
+    lines += ["", "# OV5642 digital video port: data, HREF, VSYNC launched on PCLK's falling",
+              f"# edge, valid {dvp['pclk_to_data_min']:g}-{dvp['pclk_to_data_max']:g} ns "
+              "later; captured on the rising edge"]
+    for number, ports in sorted(camera_inputs.items()):
+        clock = _camera_port(number, "pclk")
+        for key, bound in (("max", "pclk_to_data_max"), ("min", "pclk_to_data_min")):
+            lines.append(f"set_input_delay -clock [get_clocks {{{clock}}}] -clock_fall -{key} "
+                         f"{dvp[bound]:.3f} [get_ports {{{' '.join(ports)}}}]")
+    lines += ["", f"# ADV7123 DAC: setup {ADV7123['setup']:g} ns, hold {ADV7123['hold']:g} ns "
+              f"to the rising edge of its clock ({DAC_CLOCK})",
+              f"set_output_delay -clock [get_clocks {{{DAC_CLOCK}}}] -max {ADV7123['setup']:.3f} "
+              f"[get_ports {{{' '.join(vga_outputs)}}}]",
+              f"set_output_delay -clock [get_clocks {{{DAC_CLOCK}}}] -min {-ADV7123['hold']:.3f} "
+              f"[get_ports {{{' '.join(vga_outputs)}}}]",
+              "",
+              "# static or slow pins, each synchronised or not timing-critical: KEY, SW, LEDR,",
+              "# the RN-42 UART, the cameras' I2C, XCLK, RESETB and PWDN, VGA_SYNC_N, and the",
+              "# HPS peripheral pins (hard HPS I/O: the false path changes no routing)",
+              f"set_false_path -from [get_ports {{{' '.join(false_from)}}}]",
+              f"set_false_path -to [get_ports {{{' '.join(false_to)}}}]",
+              "",
+              f"# the HPS DDR3 pins ({len(ddr)} ports) are constrained by the SDRAM interface's "
+              "own SDC,",
+              f"# {SYSTEM_NAME}/synthesis/submodules/hps_sdram_p0.sdc (in the QIP)",
+              ""]
+    return "\n".join(lines)
 
 
 def _qpf() -> str:

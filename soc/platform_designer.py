@@ -15,9 +15,12 @@ so the component's ports are the core's ports by construction:
   ``core_NAME``, so Platform Designer names its port ``core_NAME_ROLE``
   (:func:`exported_port_name`), the name the board top connects.
 
-The system (``soc_system``): a 100 MHz clock source fed by the board top, the
-HPS with only the lightweight HPS-to-FPGA bridge, its DDR3 (the DE1-SoC's 1 GB)
-exported as ``memory``, and the core with its slaves on the lightweight bridge
+The system (``soc_system``): a clock source fed by the board top's pipeline
+clock (:data:`soc.clocks.SYNC_HZ`), the HPS configured as Terasic's DE1-SoC
+reference design (SD card, Ethernet, USB, UART, QSPI, SPI, I2C, GPIO on its
+dedicated pins, exported as ``hps_io``; the DE1-SoC's 1 GB DDR3 exported as
+``memory``; its FPGA reset exported as ``h2f_reset``) with only the
+lightweight HPS-to-FPGA bridge, and the core with its slaves on that bridge
 (``0xFF200000 + base`` for the HPS).
 """
 from __future__ import annotations
@@ -25,9 +28,14 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from boards.de1_soc import HPS_IO_PINS
+
+from .clocks import SYNC_HZ
+
 __all__ = ["verilog_ports", "CoreInterface", "core_interfaces", "exported_port_name",
            "soc_system_ports", "hw_tcl", "system_tcl", "HPS_MEMORY_PORTS", "SYSTEM_NAME",
-           "CORE_INSTANCE", "QSYS_VERSION", "DEVICE", "HPS_DDR3_PARAMETERS", "conduit_map"]
+           "CORE_INSTANCE", "QSYS_VERSION", "DEVICE", "HPS_DDR3_PARAMETERS", "conduit_map",
+           "HPS_PERIPHERAL_PARAMETERS", "HPS_IO_PORTS", "H2F_RESET_PORT", "HPS_GPIOS"]
 
 #: Name of the Platform Designer system (and of its Verilog module).
 SYSTEM_NAME = "soc_system"
@@ -60,7 +68,8 @@ HPS_MEMORY_PORTS = (
 )
 
 #: HPS SDRAM controller settings for the DE1-SoC's two 4 Gb x16 DDR3 chips
-#: (1 GB, 32 bits) at 400 MHz: the values of Intel's DE1-SoC reference system.
+#: (1 GB, 32 bits) at 400 MHz: the values of the ``hps_0`` of Terasic's DE1-SoC
+#: reference designs (``soc_system.qsys`` of the DE1-SoC system CD).
 HPS_DDR3_PARAMETERS = {
     "HPS_PROTOCOL": "DDR3", "MEM_VOLTAGE": "1.5V DDR3", "RATE": "Full",
     "MEM_CLK_FREQ": "400.0", "REF_CLK_FREQ": "25.0", "MEM_CLK_FREQ_MAX": "800.0",
@@ -88,7 +97,8 @@ HPS_DDR3_PARAMETERS = {
     "TIMING_BOARD_AC_SKEW": "0.03", "TIMING_BOARD_AC_TO_CK_SKEW": "0.0",
 }
 
-#: HPS-FPGA interfaces: only the lightweight bridge, nothing else to wire up.
+#: HPS-FPGA interfaces: the lightweight bridge and the HPS-to-FPGA reset
+#: (``h2f_reset``, always present) only.
 HPS_BRIDGE_PARAMETERS = {
     "F2S_Width": "0",            # FPGA-to-HPS bridge off
     "S2F_Width": "0",            # HPS-to-FPGA bridge off
@@ -100,14 +110,43 @@ HPS_BRIDGE_PARAMETERS = {
     "S2FCLK_USER2CLK_Enable": "0",
 }
 
-#: No HPS peripheral on the HPS's own pins (no ``hps_io`` conduit): the board's
-#: Linux image and its preloader set those up.
+#: HPS GPIO lines the DE1-SoC wires (``GPIO_Enable``, 100 entries): the
+#: ``gpio_inst_GPIOnn`` roles of :data:`boards.de1_soc.HPS_IO_PINS`.
+HPS_GPIOS = tuple(int(role[len("gpio_inst_GPIO"):]) for role in HPS_IO_PINS
+                  if role.startswith("gpio_inst_GPIO"))
+
+#: HPS peripherals on their dedicated pins as in Terasic's DE1-SoC reference
+#: designs (the preloader built from the handoff sets their pin multiplexing):
+#: SD card, Ethernet, USB, console UART, QSPI flash, SPI, two I2C, GPIO; the
+#: rest unused. Pins in :data:`boards.de1_soc.HPS_IO_PINS`.
 HPS_PERIPHERAL_PARAMETERS = {
-    f"{peripheral}_{key}": value
-    for peripheral in ("EMAC0", "EMAC1", "NAND", "SDIO", "USB0", "USB1", "SPIM0", "SPIM1",
-                       "UART0", "UART1", "I2C0", "I2C1", "I2C2", "I2C3", "CAN0", "CAN1")
-    for key, value in (("PinMuxing", "Unused"), ("Mode", "N/A"))
+    **{f"{peripheral}_{key}": value
+       for peripheral in ("EMAC0", "NAND", "USB0", "SPIM0", "SPIS0", "SPIS1", "UART1",
+                          "I2C2", "I2C3", "CAN0", "CAN1", "TRACE")
+       for key, value in (("PinMuxing", "Unused"), ("Mode", "N/A"))},
+    "SDIO_PinMuxing": "HPS I/O Set 0", "SDIO_Mode": "4-bit Data",
+    "EMAC1_PinMuxing": "HPS I/O Set 0", "EMAC1_Mode": "RGMII",
+    "USB1_PinMuxing": "HPS I/O Set 0", "USB1_Mode": "SDR",
+    "UART0_PinMuxing": "HPS I/O Set 0", "UART0_Mode": "No Flow Control",
+    "QSPI_PinMuxing": "HPS I/O Set 0", "QSPI_Mode": "1 SS",
+    "SPIM1_PinMuxing": "HPS I/O Set 0", "SPIM1_Mode": "Single Slave Select",
+    "I2C0_PinMuxing": "HPS I/O Set 0", "I2C0_Mode": "I2C",
+    "I2C1_PinMuxing": "HPS I/O Set 0", "I2C1_Mode": "I2C",
+    "GPIO_Enable": " ".join("Yes" if i in HPS_GPIOS else "No" for i in range(100)),
+    # the board's 25 MHz HPS oscillator (HPS_CLOCK_25)
+    "eosc1_clk_mhz": "25.0", "eosc2_clk_mhz": "25.0",
 }
+
+#: Exported HPS interfaces besides ``memory``: its peripheral pins and its
+#: reset to the FPGA (asserted while the HPS boots or resets the FPGA side).
+HPS_IO_EXPORT = "hps_io"
+H2F_RESET_EXPORT = "h2f_reset"
+_PIN_DIRECTIONS = {"i": "input", "o": "output", "io": "inout"}
+#: ``soc_system`` ports of the ``hps_io`` export: (name, direction, width).
+HPS_IO_PORTS = tuple((f"{HPS_IO_EXPORT}_hps_io_{role}", _PIN_DIRECTIONS[direction], 1)
+                     for role, (_, direction) in HPS_IO_PINS.items())
+#: The ``soc_system`` port of ``h2f_reset`` (active low).
+H2F_RESET_PORT = (f"{H2F_RESET_EXPORT}_reset_n", "output", 1)
 
 
 # ---- Verilog ports ------------------------------------------------------------------
@@ -335,11 +374,13 @@ def soc_system_ports(core_ports) -> list[tuple[str, str, int]]:
     """Ports of the ``soc_system`` module as qsys-generate will write it.
 
     The clock source's ``clk_clk`` and ``reset_reset_n``, the HPS ``memory``
-    conduit (:data:`HPS_MEMORY_PORTS`), then every core conduit port under its
-    exported name. Returns (name, direction, width) tuples.
+    conduit (:data:`HPS_MEMORY_PORTS`), its peripheral pins
+    (:data:`HPS_IO_PORTS`) and reset to the FPGA (:data:`H2F_RESET_PORT`),
+    then every core conduit port under its exported name. Returns (name,
+    direction, width) tuples.
     """
     result = [("clk_clk", "input", 1), ("reset_reset_n", "input", 1),
-              *HPS_MEMORY_PORTS]
+              *HPS_MEMORY_PORTS, *HPS_IO_PORTS, H2F_RESET_PORT]
     for iface in core_interfaces(core_ports):
         if iface.kind == "conduit":
             for _, role, direction, width in iface.ports:
@@ -446,7 +487,7 @@ def hw_tcl(core_ports, *, module: str = "stereogest_core",
     return "\n".join(lines)
 
 
-def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = 100e6,
+def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = SYNC_HZ,
                core_module: str = "stereogest_core", device: str = DEVICE) -> str:
     """The qsys-script that builds ``soc_system.qsys``.
 
@@ -513,7 +554,8 @@ def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = 100e6,
         "set_instance_parameter_value clk_0 clockFrequencyKnown 1",
         "set_instance_parameter_value clk_0 resetSynchronousEdges DEASSERT",
         "",
-        "# the HPS: lightweight bridge only, DDR3 of the DE1-SoC",
+        "# the HPS as the DE1-SoC reference design: its peripherals on their pins,",
+        "# the board's DDR3, the lightweight bridge only",
         "add_instance hps_0 altera_hps",
     ]
     for key, value in {**HPS_BRIDGE_PARAMETERS, **HPS_PERIPHERAL_PARAMETERS,
@@ -537,13 +579,19 @@ def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = 100e6,
                   f"baseAddress {base:#06x}"]
     lines += [
         "",
-        "# exported interfaces: clock, reset, HPS memory and the core's conduits",
+        "# exported interfaces: clock, reset, HPS memory, pins and reset, the core's",
+        "# conduits",
         "add_interface clk clock sink",
         "set_interface_property clk EXPORT_OF clk_0.clk_in",
         "add_interface reset reset sink",
         "set_interface_property reset EXPORT_OF clk_0.clk_in_reset",
         "add_interface memory conduit end",
         "set_interface_property memory EXPORT_OF hps_0.memory",
+        f"add_interface {HPS_IO_EXPORT} conduit end",
+        f"set_interface_property {HPS_IO_EXPORT} EXPORT_OF hps_0.hps_io",
+        "# the HPS's reset of the FPGA side: the board top adds it to its reset tree",
+        f"add_interface {H2F_RESET_EXPORT} reset source",
+        f"set_interface_property {H2F_RESET_EXPORT} EXPORT_OF hps_0.h2f_reset",
     ]
     for iface in ifaces:
         if iface.kind == "conduit":
