@@ -532,7 +532,7 @@ directory as a whole (Quartus outputs in it included).
 |---|---|
 | `{PROJECT}.v` | board top (Amaranth): pins, PLL, resets, the `{SYSTEM_NAME}` instance |
 | `{PROJECT}.qsf`, `{PROJECT}.qpf` | Quartus project: device, pin of every top-level port, the system's QIP |
-| `{PROJECT}.sdc` | clocks: 50 MHz oscillator, both camera PCLKs, PLL outputs derived |
+| `{PROJECT}.sdc` | clocks, asynchronous clock groups, AsyncFIFO pointer skew, camera and DAC I/O delays, false paths |
 | `{CORE_FILE}` | the core: pipeline, camera configuration, FIFO and UART slaves, VGA view |
 | `{HW_TCL}` | Platform Designer component of the core |
 | `{SYSTEM_TCL}` | qsys-script that builds `{SYSTEM_NAME}.qsys` (HPS + core) |
@@ -545,7 +545,7 @@ directory as a whole (Quartus outputs in it included).
 | pipeline and bus (core `clk`, lightweight bridge) | PLL output 0 | {sync_hz / 1e6:g} MHz |
 | VGA pixel clock (640x480 raster, {refresh:.1f} Hz frames) | PLL output 1 | {vga_hz / 1e6:g} MHz |
 | camera XCLK (both cameras) | PLL output 2 | {xclk_hz / 1e6:g} MHz |
-| camera configuration (I2C) | board oscillator CLOCK_50 | 50 MHz |
+| camera configuration (I2C) | board oscillator CLOCK_50 | {CONFIG_HZ / 1e6:g} MHz |
 | left / right camera | each camera's PCLK | set by the camera |
 
 ## Address map (lightweight HPS-to-FPGA bridge)
@@ -582,9 +582,10 @@ in this directory (`sh {BUILD_SCRIPT}` runs steps 1-4):
 
    (`make hps-bundle` in the repository packs `sw_hps` with a model file.)
 
-The HPS here has only its DDR3 and the lightweight bridge: boot the board's
-Linux from an SD card image with its own preloader (Terasic's DE1-SoC image),
-which sets up the HPS peripherals.
+The HPS is set up as Terasic's DE1-SoC reference design (SD card, Ethernet,
+USB, UART0 console, QSPI, SPI, I2C, GPIO on their HPS pins; the board's 1 GB
+DDR3): build the preloader from the handoff qsys-generate writes
+(`hps_isw_handoff/`) and boot Linux from the SD card.
 
 ## Board functions
 
@@ -598,6 +599,7 @@ heartbeat. Camera header pins: `boards/README.md` in the repository.
 
 `clk_0` (clock source, {sync_hz / 1e6:g} MHz, exported `clk`/`reset`), `hps_0`
 (`altera_hps`: lightweight bridge on, other bridges off, DDR3 exported as
-`memory`), `{CORE_INSTANCE}` with its clock and reset from `clk_0`, its
+`memory`, peripheral pins as `hps_io`, its FPGA reset as `h2f_reset`, which
+the top adds to its reset tree), `{CORE_INSTANCE}` with its clock and reset from `clk_0`, its
 slaves on `hps_0.h2f_lw_axi_master` and its conduits exported as {conduit_list}.
 """

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+from fnmatch import fnmatchcase
 import subprocess
 import time
 import tkinter
@@ -41,10 +42,12 @@ QSYS_SCRIPT = ("create_system", "set_project_property", "add_instance",
                "set_connection_parameter_value", "add_interface", "set_interface_property",
                "save_system")
 QSF = ("set_global_assignment", "set_location_assignment", "set_instance_assignment")
-SDC = ("create_clock", "get_ports", "get_clocks", "derive_pll_clocks",
-       "derive_clock_uncertainty", "set_clock_groups")
+SDC = ("create_clock", "get_ports", "get_clocks", "get_pins", "get_keepers",
+       "derive_pll_clocks", "derive_clock_uncertainty", "set_clock_groups",
+       "create_generated_clock", "set_max_skew", "set_net_delay", "set_input_delay",
+       "set_output_delay", "set_false_path")
 #: Stubs whose result is their argument (used inside [...]).
-_PASS_THROUGH = ("get_ports", "get_clocks")
+_PASS_THROUGH = ("get_ports", "get_clocks", "get_pins", "get_keepers")
 
 
 def run_tcl(text: str, commands) -> list[list[str]]:
@@ -166,29 +169,210 @@ def test_qsf_device_and_every_port_has_a_pin(files, top_ports):
     assert locations["hps_ddr3_0__dq__io[31]"] == "W29"
     assert locations["ov5642_0__pclk__io"] == "AC18"    # right camera, GPIO_0 pin 1
     assert locations["ov5642_1__pclk__io"] == "AB17"    # left camera, GPIO_1 pin 1
+    # HPS peripheral pins (DE1-SoC manual / Terasic golden top)
+    assert locations["hps_io_0__sdio_inst_CLK__io"] == "A16"
+    assert locations["hps_io_0__emac1_inst_TX_CLK__io"] == "H19"
+    assert locations["hps_io_0__uart0_inst_TX__io"] == "C25"
+
+
+def test_qsf_puts_each_pclk_on_a_global_clock(files):
+    calls = run_tcl(files["stereogest.qsf"], QSF)
+    promoted = {}
+    for a in calls_of(calls, "set_instance_assignment"):
+        name = a.index("-name")
+        if a[name + 1] == "GLOBAL_SIGNAL":
+            value = a[name + 2]
+            promoted[a[a.index("-to") + 1]] = value
+    assert promoted == {"ov5642_0__pclk__io": "GLOBAL CLOCK",
+                        "ov5642_1__pclk__io": "GLOBAL CLOCK"}
+    assert "not dedicated clock inputs" in (ROOT / "boards" / "README.md").read_text()
 
 
 # ---- .sdc -----------------------------------------------------------------------------
 
-def test_sdc_clocks_every_clock_input(files, top_ports):
-    calls = run_tcl(files["stereogest.sdc"], SDC)
+def port_bits(ports):
+    return {(name if width == 1 else f"{name}[{i}]"): direction
+            for name, direction, width in ports for i in range(width)}
+
+
+def run_sdc(text, top_ports):
+    """Evaluate the .sdc with collection commands that match their patterns
+    (Tcl ``string match``) against the top's port bits and the clocks defined
+    so far; a pattern that matches nothing is an error. Returns the calls with
+    each collection replaced by its members."""
+    tcl = tkinter.Tcl()
+    tcl.eval("set ::calls {}; set ::clocks {}")
+    tcl.eval("set ::ports {" + " ".join(port_bits(top_ports)) + "}")
+    tcl.eval("""
+    proc match_all {what names patterns} {
+        set out {}
+        foreach p $patterns {
+            set hit [lsearch -all -inline -glob $names $p]
+            if {$hit eq {}} { error "$what: $p matches nothing" }
+            lappend out {*}$hit
+        }
+        return $out
+    }
+    proc get_ports {patterns} { return [list PORTS {*}[match_all port $::ports $patterns]] }
+    proc get_clocks {patterns} { return [list CLOCKS {*}[match_all clock $::clocks $patterns]] }
+    proc get_pins {patterns} { return [list PINS {*}$patterns] }
+    proc get_keepers {patterns} { return [list KEEPERS {*}$patterns] }
+    proc record {name args} { lappend ::calls [list $name {*}$args] }
+    proc create_clock {args} {
+        record create_clock {*}$args
+        lappend ::clocks [lindex $args [expr {[lsearch $args -name] + 1}]]
+    }
+    proc create_generated_clock {args} {
+        record create_generated_clock {*}$args
+        lappend ::clocks [lindex $args [expr {[lsearch $args -name] + 1}]]
+    }
+    # Quartus names each PLL output clock after its counter's output pin
+    proc derive_pll_clocks {args} {
+        record derive_pll_clocks {*}$args
+        foreach n {0 1 2} { lappend ::clocks "pll|general\\[$n\\].gpll~PLL_OUTPUT_COUNTER|divclk" }
+    }
+    """)
+    for name in SDC:
+        if not tcl.eval(f"info procs {name}"):
+            tcl.eval(f"proc {name} {{args}} {{ record {name} {{*}}$args }}")
+    tcl.eval(text)
+    calls = [list(tcl.splitlist(c)) for c in tcl.splitlist(tcl.eval("set ::calls"))]
+    return calls, list(tcl.splitlist(tcl.eval("set ::clocks")))
+
+
+_TCL = tkinter.Tcl()
+
+
+def members(arg, kind):
+    items = list(_TCL.splitlist(arg))
+    assert items and items[0] == kind, arg
+    return items[1:]
+
+
+def test_sdc_clocks(files, top_ports):
+    calls, clocks = run_sdc(files["stereogest.sdc"], top_ports)
     tclsh_runs(files["stereogest.sdc"], SDC)
-    clocks = {}
+    created = {}
     for args in calls_of(calls, "create_clock"):
         opts = dict(zip(args[:-1:2], args[1:-1:2]))
-        clocks[opts["-name"]] = (float(opts["-period"]), args[-1])
-    inputs = {name for name, direction, _ in top_ports if direction == "input"}
-    assert clocks == {
-        "clk50_0__io": (20.0, "clk50_0__io"),
-        "ov5642_0__pclk__io": (20.0, "ov5642_0__pclk__io"),
-        "ov5642_1__pclk__io": (20.0, "ov5642_1__pclk__io"),
+        created[opts["-name"]] = (float(opts["-period"]), members(args[-1], "PORTS"))
+    assert created == {
+        "clk50_0__io": (20.0, ["clk50_0__io"]),
+        "ov5642_0__pclk__io": (20.0, ["ov5642_0__pclk__io"]),
+        "ov5642_1__pclk__io": (20.0, ["ov5642_1__pclk__io"]),
     }
-    assert {target for _, target in clocks.values()} <= inputs
     assert calls_of(calls, "derive_pll_clocks") == [[]]
     assert calls_of(calls, "derive_clock_uncertainty") == [[]]
-    groups = calls_of(calls, "set_clock_groups")
-    assert sorted(g[-1] for g in groups) == ["ov5642_0__pclk__io", "ov5642_1__pclk__io"]
-    assert all(g[0] == "-asynchronous" for g in groups)
+    # the DAC clock: the inverted VGA PLL output on the VGA_CLK pin
+    (dac,) = calls_of(calls, "create_generated_clock")
+    assert "-invert" in dac and members(dac[-1], "PORTS") == ["vga_0__clk__io"]
+    assert members(dac[dac.index("-source") + 1], "PINS") == [gen.pll_clock_name("vga")]
+
+
+def test_every_pair_of_clocks_is_asynchronous_or_related(files, top_ports):
+    calls, clocks = run_sdc(files["stereogest.sdc"], top_ports)
+    assert len(clocks) == 7          # oscillator, 2 PCLKs, 3 PLL outputs, DAC clock
+    (groups_call,) = calls_of(calls, "set_clock_groups")
+    assert groups_call[0] == "-asynchronous"
+    groups = [members(groups_call[i + 1], "CLOCKS") for i, a in enumerate(groups_call)
+              if a == "-group"]
+    owner = {}
+    for n, group in enumerate(groups):
+        for clock in group:
+            assert clock not in owner, f"{clock} in two groups"
+            owner[clock] = n
+    assert set(owner) == set(clocks), "a clock in no group"
+    # related (same group) only where one is generated from the other
+    related = {frozenset(g) for g in groups if len(g) > 1}
+    assert related == {frozenset({"pll|general[1].gpll~PLL_OUTPUT_COUNTER|divclk",
+                                  "vga_dac_clk"})}
+    assert len(groups) == 6          # config, sync, vga (+DAC), xclk, both cameras
+
+
+def test_every_top_level_port_is_constrained(files, top_ports):
+    calls, _ = run_sdc(files["stereogest.sdc"], top_ports)
+    clocks = set()
+    for name in ("create_clock", "create_generated_clock"):
+        for args in calls_of(calls, name):
+            clocks |= set(members(args[-1], "PORTS"))
+    delayed_in = {p for a in calls_of(calls, "set_input_delay") for p in members(a[-1], "PORTS")}
+    delayed_out = {p for a in calls_of(calls, "set_output_delay")
+                   for p in members(a[-1], "PORTS")}
+    false_from, false_to = set(), set()
+    for args in calls_of(calls, "set_false_path"):
+        opts = dict(zip(args[::2], args[1::2]))
+        false_from |= set(members(opts["-from"], "PORTS")) if "-from" in opts else set()
+        false_to |= set(members(opts["-to"], "PORTS")) if "-to" in opts else set()
+    # the DDR3 pins belong to the SDRAM interface's own SDC (qsys-generate)
+    ddr = {p for p in port_bits(top_ports) if p.startswith("hps_ddr3_0__")}
+    assert len(ddr) == sum(w for _, _, w in HPS_MEMORY_PORTS)
+    assert "hps_sdram_p0.sdc" in files["stereogest.sdc"]
+    for port, direction in port_bits(top_ports).items():
+        if port in clocks or port in ddr:
+            continue
+        if direction in ("input", "inout"):
+            assert port in delayed_in | false_from, f"{port}: input not constrained"
+        if direction in ("output", "inout"):
+            assert port in delayed_out | false_to, f"{port}: output not constrained"
+    # camera data against PCLK (falling-edge launch), VGA data against the DAC clock
+    for number in (0, 1):
+        cam = [a for a in calls_of(calls, "set_input_delay")
+               if members(a[a.index("-clock") + 1], "CLOCKS") == [f"ov5642_{number}__pclk__io"]]
+        assert {a[a.index("-clock") + 3] for a in cam} == {"-max", "-min"}
+        assert all("-clock_fall" in a for a in cam)
+        assert f"ov5642_{number}__data__io[7]" in members(cam[0][-1], "PORTS")
+    out = calls_of(calls, "set_output_delay")
+    assert {float(a[-2]) for a in out} == {gen.ADV7123["setup"], -gen.ADV7123["hold"]}
+    # nothing is false-pathed that has a delay
+    assert not (delayed_in & false_from) and not (delayed_out & false_to)
+    with pytest.raises(ValueError, match="mystery"):
+        gen.sdc_constraints([*top_ports, ("mystery", "input", 1)], [])
+
+
+def quartus_names(path, reg, bits):
+    """The names Quartus may give a register of the core, with and without
+    entity names in the hierarchy."""
+    levels = ["soc", "stereogest_core_0", *path]
+    with_entity = [f"soc_system:soc", "stereogest_core:stereogest_core_0"] + [
+        f"stereogest_core.{'.'.join(path[:i + 1])}:{p}" for i, p in enumerate(path)]
+    return [f"{'|'.join(h)}|{reg}[{b}]" for h in (levels, with_entity) for b in range(bits)]
+
+
+def test_every_async_fifo_gray_pointer_is_constrained(files, top_ports):
+    core_v = files[gen.CORE_FILE]
+    # the crossings, found here independently: every produce_cdc / consume_cdc
+    fifos = re.findall(r"^module \\stereogest_core\.(\S+)\.(produce|consume)_cdc \(", core_v,
+                       re.M)
+    assert len(fifos) == 4, fifos            # two camera FIFOs, both pointers
+    calls, _ = run_sdc(files["stereogest.sdc"], top_ports)
+    periods = {"sync": 10.0, "cam_left": 20.0, "cam_right": 20.0}
+    crossings = {(c.path, c.pointer): c for c in gen.async_fifo_crossings(core_v)}
+    for path, pointer in fifos:
+        path = tuple(path.split("."))
+        c = crossings[path, pointer]
+        assert {c.source, c.dest} in ({"sync", "cam_left"}, {"sync", "cam_right"})
+        source = "produce_w_gry" if pointer == "produce" else "consume_r_gry"
+        width = int(re.search(r"reg \[(\d+):0\] " + source, core_v)[1]) + 1
+        src_names = quartus_names(path, source, width)
+        dst_names = quartus_names((*path, f"{pointer}_cdc"), "stage0", width)
+        for command, limit in (("set_max_skew", periods[c.source]),
+                               ("set_net_delay", periods[c.dest])):
+            hits = []
+            for args in calls_of(calls, command):
+                opts = dict(zip(args[:-1], args[1:]))
+                src = members(opts["-from"], "KEEPERS")
+                dst = members(opts["-to"], "KEEPERS")
+                if all(any(fnmatchcase(n, p) for p in src) for n in src_names) and \
+                        all(any(fnmatchcase(n, p) for p in dst) for n in dst_names):
+                    hits.append(float(args[-1]))
+            assert len(hits) == 1, (command, path, pointer)
+            assert 0 < hits[0] < limit
+    # the patterns are specific: none reaches the other FIFO or the other pointer
+    sources = {(p, ptr): quartus_names(tuple(p.split(".")), "produce_w_gry" if ptr == "produce"
+                                       else "consume_r_gry", 1) for p, ptr in fifos}
+    for args in calls_of(calls, "set_max_skew"):
+        (src,) = members(args[args.index("-from") + 1], "KEEPERS")
+        assert sum(any(fnmatchcase(n, src) for n in names) for names in sources.values()) == 1
 
 
 # ---- the _hw.tcl component ------------------------------------------------------------
@@ -249,7 +433,6 @@ def test_system_tcl_puts_the_slaves_where_sw_hps_looks(files, core_ports, top_po
     params = {(a[0], a[1]): a[2] for a in calls_of(calls, "set_instance_parameter_value")}
     assert params["hps_0", "LWH2F_Enable"] == "true"
     assert params["hps_0", "F2S_Width"] == params["hps_0", "S2F_Width"] == "0"
-    assert params["hps_0", "SDIO_PinMuxing"] == "Unused"       # no hps_io conduit
     assert params["hps_0", "HPS_PROTOCOL"] == "DDR3"
     assert params["hps_0", "MEM_DQ_WIDTH"] == "32"      # 2 x16 chips, 1 GB
     assert params["hps_0", "MEM_ROW_ADDR_WIDTH"] == "15"
@@ -276,7 +459,8 @@ def test_system_tcl_puts_the_slaves_where_sw_hps_looks(files, core_ports, top_po
                if a[1] == "EXPORT_OF"}
     conduits = {i.name for i in core_interfaces(core_ports) if i.kind == "conduit"}
     assert exports == {"clk": "clk_0.clk_in", "reset": "clk_0.clk_in_reset",
-                       "memory": "hps_0.memory",
+                       "memory": "hps_0.memory", "hps_io": "hps_0.hps_io",
+                       "h2f_reset": "hps_0.h2f_reset",
                        **{f"core_{c}": f"stereogest_core_0.{c}" for c in conduits}}
     instance = re.search(r"^\s*soc_system\s+\S+\s*\((.*?)\);", files["stereogest.v"],
                          re.M | re.S)
@@ -284,6 +468,84 @@ def test_system_tcl_puts_the_slaves_where_sw_hps_looks(files, core_ports, top_po
     predicted = {name for name, _, _ in soc_system_ports(core_ports)}
     assert connected == predicted
     assert {name for name, _, _ in HPS_MEMORY_PORTS} <= connected
+
+
+def test_hps_peripherals_are_the_boards(files):
+    """SD card, Ethernet, USB, UART, QSPI, SPI, I2C and GPIO on the HPS pins
+    (Terasic's DE1-SoC reference design), each wired to a pin of the board."""
+    from boards.de1_soc import HPS_IO_PINS
+    calls = run_tcl(files[gen.SYSTEM_TCL], QSYS_SCRIPT)
+    params = {a[1]: a[2] for a in calls_of(calls, "set_instance_parameter_value")
+              if a[0] == "hps_0"}
+    expected = {"SDIO": "4-bit Data", "EMAC1": "RGMII", "USB1": "SDR",
+                "UART0": "No Flow Control", "QSPI": "1 SS", "SPIM1": "Single Slave Select",
+                "I2C0": "I2C", "I2C1": "I2C"}
+    for peripheral, mode in expected.items():
+        assert params[f"{peripheral}_PinMuxing"] == "HPS I/O Set 0", peripheral
+        assert params[f"{peripheral}_Mode"] == mode, peripheral
+        # every enabled peripheral has pins on the board, and only those
+        roles = [r for r in HPS_IO_PINS if r.startswith(f"{peripheral.lower()}_inst_")]
+        assert roles, peripheral
+    muxed = {k[:-len("_PinMuxing")] for k, v in params.items()
+             if k.endswith("_PinMuxing") and v != "Unused"}
+    assert muxed == set(expected)
+    prefixes = {r.split("_inst_")[0] for r in HPS_IO_PINS}
+    assert prefixes == {p.lower() for p in expected} | {"gpio"}
+    gpio = params["GPIO_Enable"].split()
+    assert len(gpio) == 100
+    assert [i for i, v in enumerate(gpio) if v == "Yes"] == [9, 35, 40, 48, 53, 54, 61]
+    assert {f"gpio_inst_GPIO{i:02d}" for i in (9, 35, 40, 48, 53, 54, 61)} <= set(HPS_IO_PINS)
+    # the DE1-SoC's DDR3: two x16 chips (32 bits), 1 GB, 400 MHz, CL 11
+    assert (params["MEM_DQ_WIDTH"], params["MEM_ROW_ADDR_WIDTH"], params["MEM_COL_ADDR_WIDTH"],
+            params["MEM_BANKADDR_WIDTH"]) == ("32", "15", "10", "3")
+    assert (params["MEM_CLK_FREQ"], params["MEM_TCL"], params["MEM_WTCL"]) == \
+        ("400.0", "11", "8")
+    assert params["eosc1_clk_mhz"] == "25.0"
+
+
+def test_hps_io_reaches_its_pins_and_h2f_reset_the_reset_tree(files):
+    top = files["stereogest.v"]
+    body = top[top.index("module stereogest("):top.index("endmodule")]
+    instance = re.search(r"^\s*soc_system\s+soc\s*\((.*?)\);", body, re.M | re.S)[1]
+    connections = dict(re.findall(r"\.(\w+)\(([^()]*)\)", instance))
+    from boards.de1_soc import HPS_IO_PINS
+    for role in HPS_IO_PINS:
+        assert connections[f"hps_io_hps_io_{role}"].strip() == f"hps_io_0__{role}__io", role
+    # h2f_reset: follow the top module's assignments from the HPS's output
+    reached = {connections["h2f_reset_reset_n"].strip()}
+    assigns = re.findall(r"^\s*assign\s+(\S+)\s*=\s*(.*?);", body, re.M)
+    for _ in range(len(assigns)):
+        for lhs, rhs in assigns:
+            if any(re.search(r"(?<![\w$])" + re.escape(n) + r"(?![\w$])", rhs) for n in reached):
+                reached.add(lhs)
+    assert connections["reset_reset_n"].strip() in reached      # the system's reset
+    syncs = re.findall(r"^\s*\\stereogest\.(\w+)_reset_sync\s+\w+\s*\((.*?)\);", body,
+                       re.M | re.S)
+    assert {d for d, _ in syncs} == {"cam_left", "cam_right", "config", "vga", "xclk"}
+    for domain, ports in syncs:
+        (net,) = re.findall(r"\.board_reset\(([^()]*)\)", ports)
+        assert net.strip() in reached, domain
+
+
+def test_core_verilog_is_compact(files):
+    """The frame buffer (307,200 words) gets no initialiser: the core stays
+    small enough for Quartus' analysis (12.3 MB before)."""
+    core_v = files[gen.CORE_FILE]
+    assert len(core_v) < 5_000_000, len(core_v)
+    sizes = [len(b) for b in re.findall(r"initial begin\n.*?\n\s*end\n", core_v, re.S)]
+    assert max(sizes) < 400_000, max(sizes)     # the ROMs keep theirs (270 kB)
+    assert "(* stereogest_no_init = \"1\" *)" in core_v
+
+
+def test_strip_zero_init_keeps_defined_contents():
+    from soc.core import strip_zero_init
+    zero = ('  (* stereogest_no_init = "1" *)\n  reg [3:0] mem [1:0];\n  initial begin\n'
+            "    mem[0] = 4'h0;\n    mem[1] = 4'h0;\n  end\n")
+    assert strip_zero_init(zero) == '  (* stereogest_no_init = "1" *)\n  reg [3:0] mem [1:0];\n'
+    nonzero = zero.replace("mem[1] = 4'h0", "mem[1] = 4'h3")
+    assert strip_zero_init(nonzero) == nonzero
+    unmarked = zero.replace('(* stereogest_no_init = "1" *)', '(* keep = "1" *)')
+    assert strip_zero_init(unmarked) == unmarked
 
 
 def run_default_uart_offset() -> int:
