@@ -266,7 +266,10 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         (folder / f"{name}.il").write_text(text)
         (folder / f"{name}.lpf").write_text(_lpf(clocks))
         # rename: yosys' AIGER reader (ABC9's way back) asserts on wire names such as "x[0]"
-        script = (f"read_rtlil {name}.il; rename -hide w:*[[]*; "
+        # keep: registers replicated on purpose (hdl._util.replicate) carry it on
+        # their wires; on the flip-flops it stops opt_merge from folding them
+        script = (f"read_rtlil {name}.il; setattr -set keep 1 a:keep %ci1:+[Q] c:* %i; "
+                  f"rename -hide w:*[[]*; "
                   f"synth_ecp5 -top {name} -run :check; hierarchy -check; "
                   f"tee -o stat.txt stat; check -noinit; blackbox =A:whitebox; "
                   f"write_json {name}.json")
@@ -279,7 +282,8 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         start = time.perf_counter()
         cmd = nextpnr + DEVICE["nextpnr"] + [
             "--json", f"{name}.json", "--lpf", f"{name}.lpf", "--lpf-allow-unconstrained",
-            "--report", "report.json", "--seed", str(seed), "--router", router,
+            "--report", "report.json", "--detailed-timing-report", "--seed", str(seed),
+            "--router", router,
             "--timing-allow-fail", "-q", "-l", "nextpnr.log"]
         proc = _run(cmd, folder, timeout, "nextpnr-ecp5")
         result["pnr_s"] = round(time.perf_counter() - start, 1)
@@ -307,8 +311,24 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
             "critical_path": _path_summary(crit[0]["path"]) if crit else None,
         }
     result["clocks"] = per_clock
+    result["fanout_nets"] = _fanout_nets(report)
     result["passed"] = all(c["passed"] for c in per_clock.values())
     return result
+
+
+def _fanout_nets(report: dict, count: int = 8) -> list:
+    """The nets with the most sinks, each with the latest arrival time among
+    its sinks (path delay from the launching clock edge): a flag that steers
+    thousands of registers shows here when routing it costs the period."""
+    nets = []
+    for net in report.get("detailed_net_timings", []):
+        # each endpoint's delay is [min, max] (a number in older reports)
+        arrivals = [max(d) if isinstance(d, list) else d
+                    for d in (e.get("delay", 0.0) for e in net.get("endpoints", []))]
+        if arrivals and not str(net.get("net", "")).startswith("$glbnet$"):
+            nets.append({"net": net.get("net"), "fanout": len(arrivals),
+                         "worst_arrival_ns": round(max(arrivals), 3)})
+    return sorted(nets, key=lambda n: -n["fanout"])[:count]
 
 
 def _clock_port(net: str) -> str:

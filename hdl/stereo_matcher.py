@@ -30,7 +30,7 @@ from sim.model.census import CENSUS_WINDOW_RANGE, census_bits
 from sim.model.matching import HAMMING_WINDOW_RANGE, MAX_DISPARITY_RANGE
 
 from ._util import (HEIGHT_RANGE, PIXEL_BITS_RANGE, WIDTH_RANGE, bits_for, check_int,
-                    check_odd_window)
+                    check_odd_window, replicate)
 from .census import SparseCensus
 from .lrcc import LeftRightCheck
 from .median3x3 import Median3x3
@@ -130,18 +130,22 @@ class StereoMatcher(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        beat = Signal()
+        # the input register's beat, once per census: each copy steers the
+        # beat-gated registers of one census (a single copy ran at 96.8 MHz
+        # routed, its net spanning both censuses)
+        beat_next = Signal()
+        beats = replicate(m, beat_next, 2, "beat")
         first = Signal()
         left = Signal(self.pixel_bits)
         right = Signal(self.pixel_bits)
         if self.external_flush:
-            m.d.sync += [beat.eq(self.i_stream.valid),
-                         first.eq(self.i_stream.valid & self.i_stream.payload.first),
+            m.d.comb += beat_next.eq(self.i_stream.valid)
+            m.d.sync += [first.eq(self.i_stream.valid & self.i_stream.payload.first),
                          left.eq(self.i_stream.payload.left),
                          right.eq(self.i_stream.payload.right)]
         else:
-            self._count_and_flush(m, beat, first, left, right)
-        self._stages(m, beat, first, left, right)
+            self._count_and_flush(m, beat_next, first, left, right)
+        self._stages(m, beats, first, left, right)
         return m
 
     @property
@@ -154,7 +158,7 @@ class StereoMatcher(wiring.Component):
             stages["median"] = self._median
         return stages
 
-    def _count_and_flush(self, m, beat, first, left, right):
+    def _count_and_flush(self, m, beat_next, first, left, right):
         """Self-contained mode: count the frame's pixels, then run ``flush`` beats."""
         w, h = self.width, self.height
         # Input side: pixel counter, flush counter; the flags the handshake needs are
@@ -176,16 +180,17 @@ class StereoMatcher(wiring.Component):
         with m.If(flushing):
             m.d.sync += [flush_left.eq(flush_left - 1), flushing.eq(flush_left != 1)]
         # One register stage in front of the census windows.
-        m.d.sync += [beat.eq(take | flushing), first.eq(take & at_start),
+        m.d.comb += beat_next.eq(take | flushing)
+        m.d.sync += [first.eq(take & at_start),
                      left.eq(Mux(take, self.i_stream.payload.left, 0)),
                      right.eq(Mux(take, self.i_stream.payload.right, 0))]
 
-    def _stages(self, m, beat, first, left, right):
+    def _stages(self, m, beats, first, left, right):
 
         cl, cr = self._census
         m.submodules.census_left = cl
         m.submodules.census_right = cr
-        for c, px in ((cl, left), (cr, right)):
+        for c, px, beat in ((cl, left, beats[0]), (cr, right, beats[1])):
             m.d.comb += [c.i_stream.valid.eq(beat), c.i_stream.payload.first.eq(first),
                          c.i_stream.payload.pixel.eq(px)]
         m.submodules.shd = shd = self._shd
