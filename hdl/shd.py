@@ -66,7 +66,8 @@ class SumOfHammingDistances(wiring.Component):
         self.lag = self._columns.lag + self._windows.lag
         self.cycles = self._ham[0][0].cycles + self._columns.cycles + self._windows.cycles
         self.cost_bits = self._windows.sum_bits
-        self.memory_bits = self._columns.memory_bits
+        self.memory_bits = {"column sums": self._columns.memory_bits,
+                            "window-sum ring buffer": self._windows.memory_bits}
         cb = census_bits
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({

@@ -3,8 +3,8 @@ of ``hamming_window`` consecutive column sums along the row,
 
     S_d(x, y) = S_d(x - 1, y) + C_d(x + r, y) - C_d(x - r - 1, y),
 
-from a delay line of ``Wh`` column-sum vectors and an accumulator per
-disparity. Columns outside the frame count 0. The window of a row's last r
+from a ring buffer of ``Wh`` column-sum vectors (one block RAM) and an
+accumulator per disparity. Columns outside the frame count 0. The window of a row's last r
 pixels overlaps, in the stream, the first r columns of the next row, so a
 second accumulator per disparity gathers the next row's first r column sums
 while the first finishes the row (the frame border costs no idle cycles).
@@ -12,7 +12,7 @@ while the first finishes the row (the frame border costs no idle cycles).
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal, signed
-from amaranth.lib import data, stream, wiring
+from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import RasterPosition, bits_for, check_geometry, check_int, check_odd_window, delay, \
@@ -41,8 +41,17 @@ class WindowSum(wiring.Component):
     i_stream : payload ``{first, csum}`` at raster position (x', y)
     o_stream : payload ``{first, real, cost}``: ``cost[d]`` = S_d(x' - r, y);
         ``lag`` = r, ``cycles`` = 3 (an input register, whose beat is copied once
-        per :data:`FLAG_GROUP` disparities: one beat gating all ``Wh x D``
-        delay-line registers ran at 88.7 MHz routed on an ECP5).
+        per :data:`FLAG_GROUP` disparities: one beat steering every accumulator
+        cannot be routed at 100 MHz on an ECP5).
+
+    Attributes
+    ----------
+    ring_depth : int
+        Words of the ring buffer of column-sum vectors (the power of two >= Wh;
+        0 for Wh = 1, a register). Routed, ``Wh x D`` beat-gated delay-line
+        registers instead ran at 88.7 MHz on an ECP5 (their enable's net).
+    memory_bits : int
+        ``ring_depth * max_disparity * term_bits``.
     """
 
     cycles = 3
@@ -57,6 +66,11 @@ class WindowSum(wiring.Component):
         self.sum_bits = bits_for(self.hamming_window * self.max_term)
         self.radius = self.hamming_window // 2
         self.lag = self.radius
+        #: words of the ring buffer of leaving column sums (0: a register, Wh = 1)
+        self.ring_depth = 1 << (self.hamming_window - 1).bit_length() \
+            if self.hamming_window >= 3 else 0
+        #: bits of that ring buffer
+        self.memory_bits = self.ring_depth * max_disparity * self.term_bits
         nd = self.max_disparity
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({
@@ -93,16 +107,33 @@ class WindowSum(wiring.Component):
         # the column leaving the window is in this row
         leave_ok = pos.registered(lambda x, y: x >= wh, "leave")
 
+        # The column sums leaving the window (written Wh beats ago): one ring
+        # buffer of column-sum vectors (a block RAM, read two beats ahead into a
+        # beat-gated register), or a register for Wh = 1.
+        tb = self.term_bits
+        if self.ring_depth:
+            m.submodules.ring = ring = memory.Memory(shape=nd * tb, depth=self.ring_depth,
+                                                     init=[])
+            wr, rd = ring.write_port(), ring.read_port()
+            ptr = Signal(range(self.ring_depth))
+            with m.If(beat):
+                m.d.sync += ptr.eq(ptr + 1)         # wraps: the depth is a power of two
+            # read at beat j the word of beat j - (Wh - 2): held (en) until the
+            # next beat loads it into `leaving_all`, used at beat j + 2
+            m.d.comb += [wr.addr.eq(ptr), wr.data.eq(csum), wr.en.eq(beat),
+                         rd.addr.eq(ptr - (wh - 2)), rd.en.eq(beat)]
+            ring_out = rd.data
+        else:
+            ring_out = csum
+        leaving_all = Signal(nd * tb)
+
         for d in range(nd):
             g = d // FLAG_GROUP
             tail, start, head0, valid_1 = tails[g], starts[g], head0s[g], valid_1s[g]
-            c = csum[d * self.term_bits:(d + 1) * self.term_bits]
-            line = [Signal(self.term_bits, name=f"dl_{d}_{k}") for k in range(wh)]
+            c = csum[d * tb:(d + 1) * tb]
+            leaving = leaving_all[d * tb:(d + 1) * tb]
             with m.If(beats[g]):
-                m.d.sync += line[0].eq(c)
-                for k in range(1, wh):
-                    m.d.sync += line[k].eq(line[k - 1])
-            leaving = line[wh - 1]
+                m.d.sync += leaving.eq(ring_out[d * tb:(d + 1) * tb])
             c_1 = delay(m, c, 1, f"c_{d}")
             leave_1 = delay(m, leaving, 1, f"leave_{d}")
             diff_1 = Signal(signed(self.term_bits + 1), name=f"diff_{d}")

@@ -248,7 +248,8 @@ def test_demo_small(tmp_path, capsys):
 # ---------------------------------------------------------------- help
 
 HELP_OPTIONS = {
-    None: ["render", "stereo", "eval-stereo", "pipeline", "demo", "generate", "resources"],
+    None: ["render", "stereo", "eval-stereo", "pipeline", "demo", "generate", "resources",
+           "timing"],
     "render": ["--gesture", "--seed", "--output", "--width", "--height", "--fps"],
     "stereo": ["LEFT", "RIGHT", "--output", "--census-window", "--hamming-window",
                "--max-disparity", "--lrcc-threshold", "--no-match-cost",
@@ -259,6 +260,8 @@ HELP_OPTIONS = {
              "--threads", "--quiet"],
     "generate": ["--out", "--width", "--height"],
     "resources": ["--width", "--height", "--quiet"],
+    "timing": ["--block", "--width", "--height", "--census-window", "--hamming-window",
+               "--max-disparity", "--opening-size", "--seed", "--router", "--json", "--keep"],
 }
 
 
