@@ -11,7 +11,7 @@ while the first finishes the row (the frame border costs no idle cycles).
 """
 from __future__ import annotations
 
-from amaranth.hdl import Module, Mux, Signal, signed
+from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -107,22 +107,33 @@ class WindowSum(wiring.Component):
         # the column leaving the window is in this row
         leave_ok = pos.registered(lambda x, y: x >= wh, "leave")
 
-        # The column sums leaving the window (written Wh beats ago): one ring
-        # buffer of column-sum vectors (a block RAM, read two beats ahead into a
-        # beat-gated register), or a register for Wh = 1.
+        # The column sums leaving the window (written Wh beats ago): a ring buffer
+        # of column-sum vectors (RAM, read two beats ahead into a beat-gated
+        # register), one per group of disparities, each with its own copy of
+        # the addresses; or a register for Wh = 1.
         tb = self.term_bits
         if self.ring_depth:
-            m.submodules.ring = ring = memory.Memory(shape=nd * tb, depth=self.ring_depth,
-                                                     init=[])
-            wr, rd = ring.write_port(), ring.read_port()
-            ptr = Signal(range(self.ring_depth))
+            depth = self.ring_depth
+            ptr = Signal(range(depth))
             with m.If(beat):
                 m.d.sync += ptr.eq(ptr + 1)         # wraps: the depth is a power of two
+            ptr_next = Signal(range(depth))
+            read_next = Signal(range(depth))
             # read at beat j the word of beat j - (Wh - 2): held (en) until the
             # next beat loads it into `leaving_all`, used at beat j + 2
-            m.d.comb += [wr.addr.eq(ptr), wr.data.eq(csum), wr.en.eq(beat),
-                         rd.addr.eq(ptr - (wh - 2)), rd.en.eq(beat)]
-            ring_out = rd.data
+            m.d.comb += [ptr_next.eq(ptr + beat), read_next.eq(ptr_next - (wh - 2))]
+            waddrs = replicate(m, ptr_next, copies, "waddr")
+            raddrs = replicate(m, read_next, copies, "raddr", init=(2 - wh) % depth)
+            parts = []
+            for g in range(copies):
+                lo, hi = g * FLAG_GROUP * tb, min(nd, (g + 1) * FLAG_GROUP) * tb
+                ring = memory.Memory(shape=hi - lo, depth=depth, init=[])
+                m.submodules[f"ring_{g}"] = ring
+                wr, rd = ring.write_port(), ring.read_port()
+                m.d.comb += [wr.addr.eq(waddrs[g]), wr.data.eq(csum[lo:hi]),
+                             wr.en.eq(beats[g]), rd.addr.eq(raddrs[g]), rd.en.eq(beats[g])]
+                parts.append(rd.data)
+            ring_out = Cat(*parts)
         else:
             ring_out = csum
         leaving_all = Signal(nd * tb)
