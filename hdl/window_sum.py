@@ -3,8 +3,8 @@ of ``hamming_window`` consecutive column sums along the row,
 
     S_d(x, y) = S_d(x - 1, y) + C_d(x + r, y) - C_d(x - r - 1, y),
 
-from a ring buffer of ``Wh`` column-sum vectors (one block RAM) and an
-accumulator per disparity. Columns outside the frame count 0. The window of a row's last r
+from ring buffers of ``Wh`` column-sum vectors (RAM, one per group of
+disparities) and an accumulator per disparity. Columns outside the frame count 0. The window of a row's last r
 pixels overlaps, in the stream, the first r columns of the next row, so a
 second accumulator per disparity gathers the next row's first r column sums
 while the first finishes the row (the frame border costs no idle cycles).
