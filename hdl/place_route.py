@@ -235,7 +235,9 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         ``clocks``: per clock port ``fmax_mhz``, ``constraint_mhz``, ``passed``,
         ``critical_path`` (start, end, logic levels, delay); ``passed`` (every
         clock); ``resources`` (LUT4, CCU2C, FF, EBR from yosys; nextpnr's
-        utilisation); ``seconds`` (synthesis, place and route).
+        utilisation); ``fanout_nets`` (the nets with the most sinks and their
+        latest arrival); ``synth_s``, ``pnr_s``, ``placement_s``, ``routing_s``
+        (wall seconds).
     """
     from amaranth.back import rtlil
     from .synthesis import find_yosys
@@ -275,7 +277,7 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
                   f"write_json {name}.json")
         say(f"{name}: synth_ecp5 ...")
         start = time.perf_counter()
-        proc = _run(yosys + ["-q", "-p", script], folder, timeout, "yosys")
+        _run(yosys + ["-q", "-p", script], folder, timeout, "yosys")
         result["synth_s"] = round(time.perf_counter() - start, 1)
         result["resources"] = _yosys_stat((folder / "stat.txt").read_text())
         say(f"{name}: nextpnr-ecp5 (placement and routing, {router}) ...")
@@ -285,7 +287,7 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
             "--report", "report.json", "--detailed-timing-report", "--seed", str(seed),
             "--router", router,
             "--timing-allow-fail", "-q", "-l", "nextpnr.log"]
-        proc = _run(cmd, folder, timeout, "nextpnr-ecp5")
+        _run(cmd, folder, timeout, "nextpnr-ecp5")
         result["pnr_s"] = round(time.perf_counter() - start, 1)
         log = (folder / "nextpnr.log").read_text(errors="replace")
         report = json.loads((folder / "report.json").read_text())
