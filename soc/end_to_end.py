@@ -150,8 +150,12 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                          stage=VIDEO_STAGES.index(stage),
                          log=progress, exe=exe) as system:
         bus = SystemBus(system)
+        # The app's timeouts run on the hardware's simulated time (a simulated frame
+        # takes far longer than 33 ms of wall time), its frame is the clip's.
         app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
-                         sleep=bus.sleep, poll_interval=poll_interval)
+                         sleep=bus.sleep, poll_interval=poll_interval,
+                         clock=lambda: system.cycles / clocks.sync_hz,
+                         frame_width=width, frame_height=height)
         done_at = [None]
         shown = [0]
 

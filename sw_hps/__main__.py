@@ -8,8 +8,8 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this project
                      --robot serial:/dev/ttyUSB0|uart|none
                      [--bridge-offset 0x0] [--uio /dev/uio0] [--uart-offset 0x100]
                      [--baudrate 115200] [--rn42-address ADDR] [--poll-ms 5]
-                     [--min-symbols 5] [--max-points 300]
-                     [--sim-trajectory FILE.csv] [--log-level info]
+                     [--min-symbols 5] [--max-points 300] [--gesture-timeout 2]
+                     [--heartbeat 60] [--sim-trajectory FILE.csv] [--log-level info]
 
 The FIFO slave sits at ``--bridge-offset`` inside the lightweight bridge
 (``/dev/mem`` at ``0xFF200000``) or at offset 0 of the UIO map; the UART (``--robot
@@ -18,6 +18,11 @@ runs against :class:`~sw_hps.simulated.SimulatedFifoPeripheral` (and a simulated
 for ``--robot uart``), playing ``--sim-trajectory`` (``frame,x,y,flag`` in pixels, as
 ``stereogest pipeline`` writes it), one video frame per poll, then prints one JSON
 line ``{"gestures": [...]}`` and exits; without a trajectory it idles until stopped.
+
+``--gesture-timeout`` drops a gesture whose gesture bit stays at "gesture in progress"
+with no pair for that many seconds (a stuck bit); ``--heartbeat`` logs an "alive" line
+with the counters every that many seconds while idle (0 turns it off). The faults and
+their recovery are described in :mod:`sw_hps.app`.
 
 Exit status: 0 after SIGINT/SIGTERM or the end of a simulated trajectory, 2 for a bad
 argument or model file (one line on stderr), 1 if the bus cannot be opened.
@@ -32,7 +37,8 @@ import sys
 import termios
 import time
 
-from .app import DEFAULT_MAX_POINTS, DEFAULT_MIN_SYMBOLS, GestureApp, simulate_trajectory
+from .app import (DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, DEFAULT_MAX_POINTS,
+                  DEFAULT_MIN_SYMBOLS, GestureApp, simulate_trajectory)
 from .bus import BusError, DevMemBus, SimBus, UioBus
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
@@ -46,6 +52,10 @@ WINDOW_SPAN = 0x1000
 #: Size of the lightweight HPS-to-FPGA bridge.
 BRIDGE_SIZE = 0x200000
 LOG_LEVELS = ("debug", "info", "warning", "error")
+#: Allowed --gesture-timeout (s): a few frames up to ten minutes.
+GESTURE_TIMEOUT_RANGE = (0.1, 600.0)
+#: Allowed non-zero --heartbeat (s): one second up to a day.
+HEARTBEAT_RANGE = (1.0, 86400.0)
 
 log = logging.getLogger("sw_hps")
 
@@ -92,6 +102,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"reject shorter gestures (default {DEFAULT_MIN_SYMBOLS})")
     parser.add_argument("--max-points", type=int, default=DEFAULT_MAX_POINTS,
                         help=f"drop longer gestures (default {DEFAULT_MAX_POINTS})")
+    parser.add_argument("--gesture-timeout", type=float, default=DEFAULT_GESTURE_TIMEOUT,
+                        help="seconds with the gesture bit at 'gesture in progress' but no "
+                        "pair before the gesture is dropped as stuck (default "
+                        f"{DEFAULT_GESTURE_TIMEOUT:g})")
+    parser.add_argument("--heartbeat", type=float, default=DEFAULT_HEARTBEAT,
+                        help="seconds between 'alive' log lines while idle, 0 = off "
+                        f"(default {DEFAULT_HEARTBEAT:g})")
     parser.add_argument("--sim-trajectory",
                         help="with --bus sim: trajectory.csv to play (frame,x,y,flag)")
     parser.add_argument("--log-level", default="info", choices=LOG_LEVELS,
@@ -123,6 +140,14 @@ def parse_args(argv):
         raise UsageError(f"argument --min-symbols: must be >= 1, got {args.min_symbols}")
     if args.max_points < 2:
         raise UsageError(f"argument --max-points: must be >= 2, got {args.max_points}")
+    low, high = GESTURE_TIMEOUT_RANGE
+    if not low <= args.gesture_timeout <= high:  # also refuses nan
+        raise UsageError(f"argument --gesture-timeout: must be in [{low:g}, {high:g}] "
+                         f"seconds, got {args.gesture_timeout:g}")
+    low, high = HEARTBEAT_RANGE
+    if not (args.heartbeat == 0 or low <= args.heartbeat <= high):
+        raise UsageError(f"argument --heartbeat: must be 0 (off) or in [{low:g}, {high:g}] "
+                         f"seconds, got {args.heartbeat:g}")
     if args.sim_trajectory is not None and args.bus != "sim":
         raise UsageError("argument --sim-trajectory: only with --bus sim")
     if args.rn42_address is not None:
@@ -190,7 +215,8 @@ def main(argv=None) -> int:
             bus.attach(args.uart_offset, SimulatedUart())
         link = _make_link(args, bus)
         options = dict(min_symbols=args.min_symbols, max_points=args.max_points,
-                       poll_interval=args.poll_ms / 1000.0)
+                       poll_interval=args.poll_ms / 1000.0,
+                       gesture_timeout=args.gesture_timeout, heartbeat=args.heartbeat)
         if args.bus == "sim" and trajectory is not None:
             x, y, flag = trajectory
             simulation = simulate_trajectory(models, x, y, flag, link=link, bus=bus,

@@ -14,7 +14,9 @@ S0 ``INIT``
 S1 ``WAIT``
     Poll Control (one status read per poll, then sleep ``poll_interval``) until a
     gesture starts: gesture bit 0 or FIFO data 1. A new gesture starts a fresh
-    :class:`~sw_hps.hmm.ForwardStream`.
+    :class:`~sw_hps.hmm.ForwardStream`. While nothing happens, one INFO line every
+    ``heartbeat`` seconds says the application is alive and gives its counters
+    (gestures recognised / rejected / dropped, errors, faults, points dropped).
 S2 ``READ``
     Pop the pairs the FIFOs hold (at most ``max_pairs_per_poll`` per poll). The
     orientation symbol of each step between consecutive points
@@ -22,7 +24,8 @@ S2 ``READ``
     the forward pass of every class model, one update per symbol; zero steps
     (``NO_SYMBOL``) are dropped. Sleeps ``poll_interval`` only when nothing was
     available. The gesture has ended when a status read shows the gesture bit back
-    at 1 and FIFO data 0 -> S3.
+    at 1 and FIFO data 0 -> S3. A gesture still being read after ``heartbeat``
+    seconds also gets the "alive" line.
 S3 ``CLASSIFY``
     The class with the best log-likelihood. Rejected (logged reason) if fewer
     than ``min_symbols`` symbols were seen or every model gives probability 0.
@@ -32,13 +35,54 @@ S4 ``SEND``
 S5 ``CLEAR``
     Clear the FIFOs (GO stays set) and return to S1.
 
-Faults: FIFO-FULL or more than ``max_points`` points drop the gesture (logged),
-clear the FIFOs and ignore the rest of that gesture (until the gesture bit reads 1).
-Any exception inside one step (bus error, bad value) is logged, the partial gesture
-is dropped, and after a back-off (doubling from ``initial_backoff`` up to
-``max_backoff``; back to the minimum after :data:`HEALTHY_STEPS` error-free steps)
-the machine restarts at S0. :meth:`GestureApp.request_stop` (the
-CLI's SIGINT/SIGTERM handlers) ends :meth:`GestureApp.run` cleanly.
+Faults
+------
+Each fault is logged as a WARNING that names the register values and the reason,
+counted in ``GestureApp.faults`` (one per fault seen, reminders not counted), and
+recovered from without a restart. A dropped
+gesture gives a ``"dropped"`` :class:`GestureResult` with that reason and sends no
+telegram; "ignore the rest of the gesture" means S1 discards (clears) whatever the
+FIFOs receive until the gesture bit reads 1 ("no gesture").
+
+* FIFO-FULL, or more than ``max_points`` valid points: drop the gesture, clear the
+  FIFOs, ignore the rest of the gesture. FIFO-FULL in S1 while no gesture is flagged
+  and the FIFOs hold no pair (impossible in the hardware: a stuck bit) is cleared like
+  an idle length fault (below), without a result.
+* Stuck gesture bit: in S2 the gesture bit reads 0 ("gesture in progress") but no
+  pair arrives for more than ``gesture_timeout`` seconds (a gesture pushes one pair
+  per video frame): drop the gesture, clear the FIFOs, ignore the bit until it reads
+  1. Whenever S1 ignores a gesture (after a drop, or one already in progress at S0)
+  and the bit reads 0 with no FIFO data for more than ``gesture_timeout``, one
+  warning says the bit is stuck; while S1 keeps ignoring it, a reminder at most once
+  per ``heartbeat`` (never once per poll; none if the heartbeat is off); one INFO
+  line when the bit reads 1 again.
+* Point outside the frame: a popped pair with x >= ``frame_width`` or y >=
+  ``frame_height`` (pixels, 10.8 decoded; default :data:`~sw_hps.fifo.FRAME_WIDTH` x
+  :data:`~sw_hps.fifo.FRAME_HEIGHT`), or with bits above the 18 data bits set in
+  Dato_X / Dato_Y, is dropped with a warning giving the values and the allowed range
+  (counted in ``bad_points``). The gesture goes on with its valid points (the step
+  across the gap gives one symbol). More than ``max_bad_points`` such points in one
+  gesture drop the gesture (garbage, not a hand).
+* Longitud_X != Longitud_Y, or either above :data:`~sw_hps.fifo.FIFO_DEPTH`: the FIFOs
+  are pushed and popped together, so this is misalignment or a bus fault. A push
+  between the two length reads makes them differ by one legitimately, so they are
+  read once more first; if they still disagree, S2 drops the gesture and clears the
+  FIFOs (FIFO-CLR empties both: they are aligned again). In S1 with no gesture
+  flagged and no pair (e.g. one FIFO holds an entry the other lacks) the FIFOs are
+  cleared without a result; one warning when the fault appears, then at most once
+  per ``heartbeat`` while it lasts (each poll clears again).
+* Any exception inside one step (bus error, bad value) is logged, the partial gesture
+  is dropped, and after a back-off (doubling from ``initial_backoff`` up to
+  ``max_backoff``; back to the minimum after :data:`HEALTHY_STEPS` error-free steps)
+  the machine restarts at S0.
+
+So the application is never silent for longer than about ``heartbeat`` seconds
+(with the heartbeat on): idle or reading, it logs the "alive" line; ignoring a
+gesture, its reminders; a lasting idle fault, its warnings; and a stuck gesture bit
+ends a gesture ``gesture_timeout`` after the last pair. Timeouts and the heartbeat read
+``clock`` (``time.monotonic``; injectable like ``sleep``, e.g. a
+:class:`SimulatedClock`). :meth:`GestureApp.request_stop` (the CLI's SIGINT/SIGTERM
+handlers) ends :meth:`GestureApp.run` cleanly.
 
 Every finished gesture gives one :class:`GestureResult` (recognised, rejected or
 dropped), passed to the ``on_result`` hook and returned by :meth:`GestureApp.run`.
@@ -50,6 +94,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import logging
+import numbers
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -58,14 +103,17 @@ from typing import Callable
 import numpy as np
 
 from .bus import SimBus
-from .fifo import FIFO_DEPTH, FifoPeripheral, FifoStatus
+from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FRAME_WIDTH,
+                   FifoPeripheral, FifoStatus, from_fixed)
 from .hmm import GestureModels, best_class
 from .orientation import NO_SYMBOL, orientation_symbols
 from .robot import GESTURE_NAMES, NullLink, telegram
 from .simulated import SimulatedFifoPeripheral
 
-__all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "SimulationRun",
-           "simulate_trajectory", "run_on_trajectory", "DEFAULT_MIN_SYMBOLS", "DEFAULT_MAX_POINTS"]
+__all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "SimulatedClock",
+           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "DEFAULT_MIN_SYMBOLS",
+           "DEFAULT_MAX_POINTS", "DEFAULT_GESTURE_TIMEOUT", "DEFAULT_HEARTBEAT",
+           "DEFAULT_MAX_BAD_POINTS"]
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +123,16 @@ DEFAULT_MIN_SYMBOLS = 5
 HEALTHY_STEPS = 50
 #: Most points one gesture may have (10 s at 30 frames/s; the thesis' last 1-3 s).
 DEFAULT_MAX_POINTS = 300
+#: Seconds S2 waits for the next pair while the gesture bit says "gesture in progress"
+#: (pairs come every 33 ms during a gesture; 2 s is 60 frames without one).
+DEFAULT_GESTURE_TIMEOUT = 2.0
+#: Seconds between two "alive" lines while idle (and between reminders of a lasting fault).
+DEFAULT_HEARTBEAT = 60.0
+#: Points outside the frame one gesture may lose before it is dropped (a few glitches
+#: in a 40-100 point gesture are survivable; more means garbage, not a hand).
+DEFAULT_MAX_BAD_POINTS = 5
+#: Frame widths / heights the 10.8 format can carry (10 integer bits).
+_MAX_FRAME_SIZE = 1 << (DATA_BITS - FRAC_BITS)
 
 
 class State(enum.Enum):
@@ -209,6 +267,10 @@ class GestureClassifier:
         return best, None
 
 
+def _is_real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
 class GestureApp:
     """The §8.5 state machine over a FIFO driver and a robot link.
 
@@ -232,6 +294,28 @@ class GestureApp:
         ``sleep(seconds)``; injectable (tests, simulated time).
     on_result : callable, optional
         Called with each :class:`GestureResult`; its exceptions are logged.
+    gesture_timeout : float > 0
+        Seconds without a pair, gesture bit 0, after which the gesture bit counts as
+        stuck (module docstring, Faults).
+    heartbeat : float >= 0 or None
+        Seconds between two "alive" lines (while idle, or reading a gesture that has
+        not ended), and between reminders of a lasting fault; 0 or None turns both
+        off (a lasting fault is then logged once).
+    max_bad_points : int >= 0
+        Points outside the frame one gesture may lose; one more drops the gesture.
+    frame_width, frame_height : int in [1, 1024]
+        Frame size in pixels; valid points lie in [0, frame_width) x [0, frame_height).
+    clock : callable
+        ``clock() -> seconds`` (monotonic) for the timeout and the heartbeat;
+        injectable like ``sleep``.
+
+    Attributes
+    ----------
+    outcomes : dict
+        Gestures finished per outcome (``"recognised"``, ``"rejected"``, ``"dropped"``).
+    errors, faults, bad_points : int
+        Exceptions recovered from, faults seen (module docstring; reminders not
+        counted), points dropped for lying outside the frame.
     """
 
     def __init__(self, models: GestureModels, fifo: FifoPeripheral, link=None, *,
@@ -239,7 +323,12 @@ class GestureApp:
                  poll_interval: float = 0.005, max_pairs_per_poll: int = FIFO_DEPTH,
                  initial_backoff: float = 0.1, max_backoff: float = 5.0,
                  sleep: Callable[[float], None] = time.sleep,
-                 on_result: Callable[[GestureResult], None] | None = None):
+                 on_result: Callable[[GestureResult], None] | None = None,
+                 gesture_timeout: float = DEFAULT_GESTURE_TIMEOUT,
+                 heartbeat: float | None = DEFAULT_HEARTBEAT,
+                 max_bad_points: int = DEFAULT_MAX_BAD_POINTS,
+                 frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
+                 clock: Callable[[], float] = time.monotonic):
         if models.num_symbols != 8:
             raise ValueError(f"models must use the 8 orientation symbols, "
                              f"got num_symbols={models.num_symbols}")
@@ -251,6 +340,21 @@ class GestureApp:
         if not 0 < initial_backoff <= max_backoff:
             raise ValueError("need 0 < initial_backoff <= max_backoff, got "
                              f"{initial_backoff!r}, {max_backoff!r}")
+        if not (_is_real(gesture_timeout) and 0 < gesture_timeout < float("inf")):
+            raise ValueError(f"gesture_timeout must be a finite number of seconds > 0, "
+                             f"got {gesture_timeout!r}")
+        if heartbeat is not None and not (_is_real(heartbeat)
+                                          and 0 <= heartbeat < float("inf")):
+            raise ValueError(f"heartbeat must be None or a finite number of seconds >= 0 "
+                             f"(0 = off), got {heartbeat!r}")
+        if isinstance(max_bad_points, bool) or not isinstance(max_bad_points, int) \
+                or max_bad_points < 0:
+            raise ValueError(f"max_bad_points must be an int >= 0, got {max_bad_points!r}")
+        for name, value in (("frame_width", frame_width), ("frame_height", frame_height)):
+            if isinstance(value, bool) or not isinstance(value, int) \
+                    or not 1 <= value <= _MAX_FRAME_SIZE:
+                raise ValueError(f"{name} must be an int in [1, {_MAX_FRAME_SIZE}] (10.8 "
+                                 f"fixed point), got {value!r}")
         self.models = models
         self.fifo = fifo
         self.link = link if link is not None else NullLink()
@@ -272,6 +376,24 @@ class GestureApp:
         self._pending: GestureResult | None = None
         self._stop = False
         self._run_results: list[GestureResult] | None = None
+        self.gesture_timeout = float(gesture_timeout)
+        self.heartbeat = float(heartbeat) if heartbeat else None
+        self.max_bad_points = max_bad_points
+        self.frame_width, self.frame_height = frame_width, frame_height
+        self._clock = clock
+        self.outcomes = {"recognised": 0, "rejected": 0, "dropped": 0}
+        self.faults = 0
+        self.bad_points = 0
+        self._gesture_bad_points = 0
+        # S2: clock of the last pair popped (or of the gesture's start).
+        self._last_pair_at = 0.0
+        # Clock of the last heartbeat (None: S0 has not run yet).
+        self._last_heartbeat: float | None = None
+        # While discarding: since when, FIFO data last seen, stuck bit reported, last line.
+        self._discard_since = self._discard_data_at = self._discard_logged_at = 0.0
+        self._stuck_reported = False
+        # S1: clock of the last warning about a lasting idle fault (None: no fault).
+        self._idle_fault_at: float | None = None
 
     # ---- control ----------------------------------------------------------------
     def request_stop(self) -> None:
@@ -378,63 +500,209 @@ class GestureApp:
         self.fifo.clear(keep_running=True)
         # A gesture already flagged began before the clear: its start is lost.
         self.discarding = self.fifo.status().gesture_active
+        if self.discarding:
+            self._start_discarding()
+        if self._last_heartbeat is None:
+            self._last_heartbeat = self._clock()  # the heartbeat counts from this line
         log.info("S0: FIFO cleared, capture running%s",
                  "; ignoring the gesture in progress" if self.discarding else "")
         self.state = State.WAIT
 
     def _wait(self) -> None:  # S1
         status = self.fifo.status()
-        if status.full and not self.discarding:
-            self._drop("FIFO-FULL set (the FIFO overflowed)")
-            return
         if self.discarding:
-            if status.full:
-                self.fifo.clear(keep_running=True)
-                return
             if status.gesture_active:
-                if status.data:
+                self._watch_discarded(status)
+                if status.data or status.full:
                     self.fifo.clear(keep_running=True)
                 self._pause(self.poll_interval)
                 return
-            self.discarding = False
-            if status.data:
+            self._stop_discarding()
+            if status.data or status.full:
                 self.fifo.clear(keep_running=True)
                 return
         if status.data or status.gesture_active:
             log.debug("S1: gesture started")
             self.classifier.reset()
+            self._gesture_bad_points = 0
+            self._last_pair_at = self._clock()
             self.state = State.READ
-            self._consume(status)
+            self._consume(status)  # FIFO-FULL and the lengths are checked there
             return
+        # No gesture and no pair: FIFO-FULL or misaligned FIFOs are cleared before the
+        # next gesture starts in them.
+        if status.full:
+            problem = "FIFO-FULL set while no gesture is flagged and the FIFOs hold no pair"
+        else:
+            status, problem = self._check_lengths(status)
+        if problem is not None:
+            self._idle_fault(problem)
+            return
+        self._idle_fault_at = None
+        self._beat("waiting for a gesture (S1)")
+        self._pause(self.poll_interval)
+
+    def _beat(self, activity: str) -> None:
+        """The "alive" line with the counters, at most once per ``heartbeat``."""
+        if self.heartbeat is None:
+            return
+        now = self._clock()
+        if self._last_heartbeat is None:
+            self._last_heartbeat = now
+        elif now - self._last_heartbeat >= self.heartbeat:
+            self._last_heartbeat = now
+            log.info("alive: %s; %s", activity, self._counters())
+
+    def _counters(self) -> str:
+        done = self.outcomes
+        return (f"gestures {done['recognised']} recognised, {done['rejected']} rejected, "
+                f"{done['dropped']} dropped; {self.errors} errors; {self.faults} faults "
+                f"({self.bad_points} points outside the frame)")
+
+    def _start_discarding(self, *, stuck: bool = False) -> None:
+        """Ignore the rest of the gesture in progress (until the gesture bit reads 1)."""
+        now = self._clock()
+        self.discarding = True
+        self._discard_since = self._discard_logged_at = now
+        # A stuck bit was reported by S2 already; its silence began with the last pair.
+        self._discard_data_at = self._last_pair_at if stuck else now
+        self._stuck_reported = stuck
+
+    def _watch_discarded(self, status: FifoStatus) -> None:
+        """S1 ignoring a gesture whose bit still reads 0: one warning once no FIFO data
+        came for ``gesture_timeout`` (the bit looks stuck), then a reminder at most
+        once per ``heartbeat``, not once per poll."""
+        now = self._clock()
+        if status.data:
+            self._discard_data_at = now
+        quiet = now - self._discard_data_at
+        if not self._stuck_reported and quiet > self.gesture_timeout:
+            self._stuck_reported = True
+            self._discard_logged_at = now
+            self.faults += 1
+            log.warning("S1: gesture bit stuck at 0 (gesture in progress) with no FIFO data "
+                        "for %.1f s (gesture_timeout=%g s); ignoring it until it reads 1",
+                        quiet, self.gesture_timeout)
+        elif self.heartbeat is not None and now - self._discard_logged_at >= self.heartbeat:
+            self._discard_logged_at = now
+            what = (f"stuck: no FIFO data for {quiet:.1f} s" if quiet > self.gesture_timeout
+                    else "pairs still arrive and are discarded")
+            log.warning("S1: gesture bit still 0 after %.1f s (%s); ignoring it until it "
+                        "reads 1; %s", now - self._discard_since, what, self._counters())
+
+    def _stop_discarding(self) -> None:
+        self.discarding = False
+        if self._stuck_reported:
+            log.info("S1: gesture bit reads 1 again after %.1f s; back to normal",
+                     self._clock() - self._discard_since)
+        self._stuck_reported = False
+
+    @staticmethod
+    def _lengths_agree(length_x: int, length_y: int) -> bool:
+        return length_x == length_y <= FIFO_DEPTH
+
+    def _check_lengths(self, status: FifoStatus) -> tuple[FifoStatus, str | None]:
+        """``(status, None)`` if Longitud_X/Y are plausible (the status with lengths read
+        again if needed), else ``(status, reason)``."""
+        if self._lengths_agree(status.length_x, status.length_y):
+            return status, None
+        # A push between the two length reads makes them differ by one: read again.
+        length_x, length_y = self.fifo.lengths()
+        if self._lengths_agree(length_x, length_y):
+            return dataclasses.replace(status, length_x=length_x, length_y=length_y), None
+        reads = f"read twice: {status.length_x}/{status.length_y}, then {length_x}/{length_y}"
+        if length_x != length_y:
+            return status, (f"Longitud_X={length_x} and Longitud_Y={length_y} differ ({reads}; "
+                            "the FIFOs are pushed and popped together: misaligned or a bus "
+                            "fault)")
+        return status, (f"Longitud_X={length_x} and Longitud_Y={length_y} exceed "
+                        f"FIFO_DEPTH={FIFO_DEPTH} ({reads}; a bus fault)")
+
+    def _idle_fault(self, problem: str) -> None:
+        """S1, no gesture, no pair: clear the FIFOs (FIFO-CLR also realigns them); warn
+        when the fault appears, then at most once per ``heartbeat`` while it lasts."""
+        now = self._clock()
+        first = self._idle_fault_at is None
+        if first or (self.heartbeat is not None
+                     and now - self._idle_fault_at >= self.heartbeat):
+            if first:
+                self.faults += 1
+            self._idle_fault_at = now
+            log.warning("S1: %s; FIFOs cleared%s", problem,
+                        "" if first else " (the fault persists)")
+        self.fifo.clear(keep_running=True)
         self._pause(self.poll_interval)
 
     def _read(self) -> None:  # S2
         status = self.fifo.status()
+        # A gesture lasts seconds; the heartbeat only shows if this one does not end.
+        self._beat(f"reading a gesture (S2), {self.classifier.num_points} points so far")
         self._consume(status)
 
     def _consume(self, status: FifoStatus) -> None:
         if status.full:
             self._drop("FIFO-FULL set (the FIFO overflowed)")
             return
+        status, problem = self._check_lengths(status)
+        if problem is not None:
+            self._drop(problem)
+            return
         count = min(status.pairs_available, self.max_pairs_per_poll)
         if status.data and count == 0:
-            count = 1  # FIFO data says there is a pair even if the lengths disagree
+            count = 1  # FIFO data says there is a pair even if the lengths read 0
         if count:
-            points = np.array([self.fifo.pop_raw() for _ in range(count)], dtype=np.int64)
-            self.classifier.add_points(points)
-            if self.classifier.num_points > self.max_points:
-                self._drop(f"gesture longer than max_points={self.max_points}")
+            self._last_pair_at = self._clock()
+            self._take([self.fifo.pop_words() for _ in range(count)])
             return
         if not status.gesture_active:
             self.state = State.CLASSIFY
             return
+        quiet = self._clock() - self._last_pair_at
+        if quiet > self.gesture_timeout:
+            self._drop(f"gesture bit stuck at 0 (gesture in progress) but no pair for "
+                       f"{quiet:.1f} s (gesture_timeout={self.gesture_timeout:g} s)", stuck=True)
+            return
         self._pause(self.poll_interval)
 
-    def _drop(self, reason: str) -> None:
+    def _take(self, words) -> None:
+        """Feed the popped ``(Dato_X, Dato_Y)`` words inside the frame to the
+        classifier; drop the others (module docstring, Faults)."""
+        good = []
+        for x, y in words:
+            problem = self._point_problem(x, y)
+            if problem is None:
+                good.append((x, y))
+                continue
+            self.faults += 1
+            self.bad_points += 1
+            self._gesture_bad_points += 1
+            log.warning("S2: point dropped: %s (%d in this gesture, max_bad_points=%d)",
+                        problem, self._gesture_bad_points, self.max_bad_points)
+            if self._gesture_bad_points > self.max_bad_points:
+                break
+        self.classifier.add_points(np.array(good, dtype=np.int64).reshape(-1, 2))
+        if self._gesture_bad_points > self.max_bad_points:
+            self._drop(f"{self._gesture_bad_points} points outside the frame (more than "
+                       f"max_bad_points={self.max_bad_points})")
+        elif self.classifier.num_points > self.max_points:
+            self._drop(f"gesture longer than max_points={self.max_points}")
+
+    def _point_problem(self, x: int, y: int) -> str | None:
+        """Why a popped pair is not a point of the frame, or None."""
+        if x > DATA_MASK or y > DATA_MASK:
+            return (f"Dato_X={x:#010x}, Dato_Y={y:#010x} have bits above the {DATA_BITS} "
+                    f"data bits set (allowed 0..{DATA_MASK:#x})")
+        if x >= self.frame_width << FRAC_BITS or y >= self.frame_height << FRAC_BITS:
+            return (f"(x, y) = ({from_fixed(x):.2f}, {from_fixed(y):.2f}) px lies outside the "
+                    f"frame (x in [0, {self.frame_width}), y in [0, {self.frame_height}))")
+        return None
+
+    def _drop(self, reason: str, *, stuck: bool = False) -> None:
+        self.faults += 1
         log.warning("gesture dropped: %s", reason)
         self._pending = GestureResult("dropped", num_points=self.classifier.num_points,
                                       num_symbols=self.classifier.num_symbols, reason=reason)
-        self.discarding = True
+        self._start_discarding(stuck=stuck)
         self.state = State.CLEAR
 
     def _classify(self) -> None:  # S3
@@ -480,6 +748,7 @@ class GestureApp:
         self.fifo.clear(keep_running=True)
 
     def _finish(self, result: GestureResult) -> None:
+        self.outcomes[result.outcome] = self.outcomes.get(result.outcome, 0) + 1
         self.results.append(result)
         if self._run_results is not None:
             self._run_results.append(result)
@@ -488,6 +757,30 @@ class GestureApp:
                 self.on_result(result)
             except Exception as exc:
                 log.error("on_result hook raised %s: %s", type(exc).__name__, exc)
+
+
+class SimulatedClock:
+    """Simulated time for the application: ``sleep(seconds)`` advances it, calling
+    it reads it (give ``sleep=clock.sleep, clock=clock`` to :class:`GestureApp`).
+
+    Parameters
+    ----------
+    start : float
+        Initial time in seconds.
+    """
+
+    def __init__(self, start: float = 0.0):
+        self.now = float(start)
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += max(0.0, float(seconds))
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` pass without a sleep (e.g. time spent on the bus)."""
+        self.sleep(seconds)
 
 
 class SimulationRun:
@@ -540,7 +833,7 @@ class SimulationRun:
 def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = True,
                         link=None, bus: SimBus | None = None, reads_per_frame: int = 1,
                         depth: int = FIFO_DEPTH,
-                        sleep: Callable[[float], None] = lambda seconds: None,
+                        sleep: Callable[[float], None] | None = None,
                         max_iterations: int | None = None, **app_options) -> SimulationRun:
     """Wire the unmodified application to a simulated FIFO playing a trajectory.
 
@@ -562,8 +855,9 @@ def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = Tru
         Control reads (= application polls) per video frame.
     depth : int
         Simulated FIFO depth.
-    sleep : callable
-        The application's sleep; no-op by default (simulated time).
+    sleep : callable, optional
+        The application's sleep. By default a :class:`SimulatedClock` (no real
+        waiting) that is also the application's ``clock``, unless ``clock`` is given.
     max_iterations : int, optional
         Safety bound on steps (default: generous, from the trajectory length).
     **app_options
@@ -582,6 +876,10 @@ def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = Tru
     else:
         bus.attach(0, peripheral)
     link = link if link is not None else NullLink()
+    if sleep is None:
+        simulated = SimulatedClock()
+        sleep = simulated.sleep
+        app_options.setdefault("clock", simulated)
     app = GestureApp(models, FifoPeripheral(bus), link, sleep=sleep, **app_options)
     if max_iterations is None:
         max_iterations = 20 * (peripheral.frames_pending + 10) * reads_per_frame + 1000

@@ -39,6 +39,11 @@ either FIFO is full the pair is dropped from both (they stay aligned) and FIFO-F
 is set. While GO is 0 nothing is pushed and the gesture bit reads 1. The FIFO
 depth of the hardware is :data:`FIFO_DEPTH` (512 x 18 bits fits one M10K block per
 FIFO; a gesture of the thesis lasts 40-100 frames).
+
+The pushed values are smoothed centroids of the board's :data:`FRAME_WIDTH` x
+:data:`FRAME_HEIGHT` frames: 0 <= x < FRAME_WIDTH, 0 <= y < FRAME_HEIGHT in pixels
+(``x << FRAC_BITS`` in the register). X and Y are pushed in the same cycle and popped
+in pairs, so Longitud_X equals Longitud_Y (two reads can straddle a push, though).
 """
 from __future__ import annotations
 
@@ -48,7 +53,7 @@ __all__ = [
     "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
     "CTRL_READABLE_MASK", "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH",
-    "LIGHTWEIGHT_BRIDGE_BASE", "FifoStatus", "FifoPeripheral",
+    "FRAME_WIDTH", "FRAME_HEIGHT", "LIGHTWEIGHT_BRIDGE_BASE", "FifoStatus", "FifoPeripheral",
     "to_fixed", "from_fixed",
 ]
 
@@ -79,6 +84,11 @@ DATA_BITS = 18
 DATA_MASK = (1 << DATA_BITS) - 1
 #: Entries per FIFO in the hardware.
 FIFO_DEPTH = 512
+#: Frame size of the board in pixels (the OV5642 register table sets 640 x 480; the
+#: SoC is built at this size, ``soc.core.StereogestCore``'s default, checked by the
+#: tests). Dato_X / Dato_Y lie in [0, FRAME_WIDTH) / [0, FRAME_HEIGHT).
+FRAME_WIDTH = 640
+FRAME_HEIGHT = 480
 
 #: Physical base address of the lightweight HPS-to-FPGA bridge (Cyclone V HPS).
 LIGHTWEIGHT_BRIDGE_BASE = 0xFF200000
@@ -182,11 +192,19 @@ class FifoPeripheral:
         control = self._read(CONTROL)
         return FifoStatus.decode(control, self._read(LONGITUD_X), self._read(LONGITUD_Y))
 
+    def lengths(self) -> tuple[int, int]:
+        """Read Longitud_X and Longitud_Y only (two bus reads)."""
+        return self._read(LONGITUD_X), self._read(LONGITUD_Y)
+
+    def pop_words(self) -> tuple[int, int]:
+        """Pop one pair as the whole 32-bit Dato_X / Dato_Y words (bits [31:18]
+        should read 0; unlike :meth:`pop_raw` they are kept so a caller can check)."""
+        return self._read(DATO_X), self._read(DATO_Y)
+
     def pop_raw(self) -> tuple[int, int]:
         """Pop one pair as raw 10.8 fixed-point integers (low 18 bits)."""
-        x = self._read(DATO_X) & DATA_MASK
-        y = self._read(DATO_Y) & DATA_MASK
-        return x, y
+        x, y = self.pop_words()
+        return x & DATA_MASK, y & DATA_MASK
 
     def pop(self) -> tuple[float, float]:
         """Pop one pair in pixels (10.8 decoded)."""
