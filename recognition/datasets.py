@@ -2,12 +2,18 @@
 
 Layout (plain arrays, loadable with ``allow_pickle=False``)::
 
-    points   (P, 2) float   x, y of every trajectory, concatenated
-    offsets  (N+1,) int     trajectory i is points[offsets[i]:offsets[i+1]]
-    label    (N,) str       class name of each trajectory
-    subject  (N,) int       optional: who made it (person, writer)
+    points       (P, 2) float   x, y of every trajectory, concatenated
+    offsets      (N+1,) int     trajectory i is points[offsets[i]:offsets[i+1]]
+    label        (N,) str       class name of each trajectory, or
+                 (N,) int       index into class_names (label i means class_names[label[i]])
+    class_names  (C,) str       needed with integer labels: C unique names, labels in 0..C-1
+    subject      (N,) int       optional: who made it (person, writer)
+    writer       (N,) int       optional: taken as subject when there is no subject key
 
-Other keys are kept but not interpreted.
+:func:`load_trajectories` turns integer labels into their class names, so a
+:class:`TrajectorySet` always holds string labels. With string labels,
+``class_names`` (and ``writer`` next to ``subject``) is kept but not
+interpreted, like every other key.
 """
 from __future__ import annotations
 
@@ -44,9 +50,11 @@ class TrajectorySet:
             raise ValueError(f"offsets must rise strictly from 0 to len(points) = {len(points)} "
                              "(every trajectory has at least one point)")
         n = offsets.size - 1
-        if label.shape != (n,) or label.dtype.kind not in "UO":
-            raise ValueError(f"label must be ({n},) strings, one per trajectory, got shape "
-                             f"{label.shape} dtype {label.dtype}")
+        if label.shape != (n,):
+            raise ValueError(f"label must have shape ({n},), one per trajectory, got shape "
+                             f"{label.shape}")
+        if label.dtype.kind not in "UO":
+            raise ValueError(f"label must be ({n},) strings, got dtype {label.dtype}")
         object.__setattr__(self, "points", points.astype(np.float64))
         object.__setattr__(self, "offsets", offsets.astype(np.int64))
         object.__setattr__(self, "label", label.astype(str))
@@ -92,7 +100,10 @@ class TrajectorySet:
 
 
 def load_trajectories(path) -> TrajectorySet:
-    """Read and validate a trajectory ``.npz``; ``ValueError`` names the key."""
+    """Read and validate a trajectory ``.npz``; ``ValueError`` (one line) names the key.
+
+    Integer labels become ``class_names[label]``; ``writer`` is the subject of a
+    file without ``subject`` (UCI pendigits)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such dataset file: {path}")
@@ -113,12 +124,47 @@ def load_trajectories(path) -> TrajectorySet:
     missing = [k for k in ("points", "offsets", "label") if k not in arrays]
     if missing:
         raise ValueError(f"{path}: missing key(s) {', '.join(missing)} "
-                         "(need points, offsets, label; subject optional)")
+                         "(need points, offsets, label; class_names with integer labels; "
+                         "subject or writer optional)")
+    subject_key = "subject" if "subject" in arrays else "writer" if "writer" in arrays else None
     try:
-        return TrajectorySet(arrays["points"], arrays["offsets"], arrays["label"],
-                             arrays.get("subject"))
+        label = _string_labels(arrays["label"], arrays.get("class_names"))
+        return TrajectorySet(arrays["points"], arrays["offsets"], label,
+                             None if subject_key is None else arrays[subject_key])
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+        message = str(exc)
+        if subject_key == "writer" and message.startswith("subject "):
+            message = "writer (read as subject) " + message[len("subject "):]
+        raise ValueError(f"{path}: {message}") from None
+
+
+def _string_labels(label: np.ndarray, class_names: np.ndarray | None) -> np.ndarray:
+    """String labels as stored, or integer labels mapped through ``class_names``."""
+    if label.dtype.kind == "U":
+        return label                      # class_names, if any, is not interpreted
+    if label.dtype.kind not in "iu":
+        raise ValueError(f"label must be strings, or integers indexing class_names, "
+                         f"got dtype {label.dtype}")
+    if class_names is None:
+        raise ValueError(f"label holds integers (dtype {label.dtype}): class_names is needed "
+                         "to name the classes (label i means class_names[label[i]])")
+    if class_names.ndim != 1 or class_names.size < 1 or class_names.dtype.kind != "U":
+        raise ValueError(f"class_names must be a 1-D array of at least one string, got shape "
+                         f"{class_names.shape} dtype {class_names.dtype}")
+    names, counts = np.unique(class_names, return_counts=True)
+    if (counts > 1).any():
+        repeated = ", ".join(repr(str(n)) for n in names[counts > 1][:5])
+        raise ValueError(f"class_names must be unique, got {repeated} more than once")
+    if label.ndim != 1:
+        raise ValueError(f"label must be a 1-D array, one per trajectory, got shape "
+                         f"{label.shape}")
+    top = class_names.size - 1
+    outside = (label < 0) | (label > top)
+    if outside.any():
+        bad = label[outside]
+        raise ValueError(f"label must be in 0..{top} (indices into the {top + 1} class_names), "
+                         f"got {bad.size} label(s) outside, e.g. {int(bad[0])}")
+    return class_names[label.astype(np.int64)]
 
 
 def save_trajectories(data: TrajectorySet, path, **extra) -> None:

@@ -15,7 +15,9 @@ HELP = "classify a labelled trajectory dataset with a model file (JSON: accuracy
 
 def add_arguments(p):
     p.add_argument("model", metavar="MODEL.json", help="model file written by 'stereogest train'")
-    p.add_argument("data", metavar="DATA.npz", help="trajectory dataset (points, offsets, label)")
+    p.add_argument("data", metavar="DATA.npz",
+                   help="trajectory dataset (points, offsets, label: strings, or integers "
+                        "with class_names)")
     p.add_argument("--resample", metavar="N", default=None,
                    help="pen front end with N points, or 'camera' (default: as the model "
                         "was trained, from its meta)")

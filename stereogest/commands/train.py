@@ -27,7 +27,8 @@ def add_arguments(p):
     from recognition.hmm_train import (DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER,
                                        DEFAULT_TOL, MAX_STATES)
     p.add_argument("data", metavar="DATA.npz",
-                   help="trajectory dataset (points, offsets, label; optional subject)")
+                   help="trajectory dataset (points, offsets, label: strings, or integers with "
+                        "class_names; optional subject, or writer as the subject)")
     p.add_argument("-o", "--output", metavar="MODEL.json", required=True,
                    help="model file to write")
     p.add_argument("--states", type=int, default=None, metavar="N",
@@ -41,7 +42,7 @@ def add_arguments(p):
                         f"(default {_DEFAULT_FOLDS})")
     p.add_argument("--groups", metavar="KEY", default=None,
                    help="cross-validate leave-one-group-out over this per-trajectory key of "
-                        "DATA.npz (e.g. subject) instead of k folds")
+                        "DATA.npz (e.g. subject, or writer) instead of k folds")
     p.add_argument("--resample", type=int, default=None, metavar="N",
                    help="pen front end: resample each path to N points, 2..4096 "
                         "(default: camera front end)")
@@ -133,11 +134,12 @@ def _check_options(args) -> list[int] | None:
 
 
 def _groups(path: Path, key: str, data):
-    """The per-trajectory values of ``key`` in the dataset."""
+    """The per-trajectory values of ``key`` in the dataset (``subject``: as loaded,
+    i.e. the ``writer`` key of a file without ``subject``)."""
     import numpy as np
     if key == "subject":
         if data.subject is None:
-            raise ValueError(f"--groups subject: {path} has no 'subject' array")
+            raise ValueError(f"--groups subject: {path} has no 'subject' or 'writer' array")
         return data.subject
     with np.load(path, allow_pickle=False) as arrays:
         if key not in arrays.files:
