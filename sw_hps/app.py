@@ -105,7 +105,7 @@ import numpy as np
 from .bus import SimBus
 from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FRAME_WIDTH,
                    FifoPeripheral, FifoStatus, from_fixed)
-from .hmm import GestureModels, best_class
+from .hmm import GestureModels
 from .orientation import NO_SYMBOL, orientation_symbols
 from .robot import GESTURE_NAMES, NullLink, telegram
 from .simulated import SimulatedFifoPeripheral
@@ -197,40 +197,55 @@ class GestureResult:
 
 
 class GestureClassifier:
-    """Streaming classifier stage (S2-S3): points -> orientation symbols ->
-    forward pass of every class model (thesis §7.4, §8.5).
+    """Classifier stage (S2-S3): points -> forward pass of every class model
+    (thesis §7.4, §8.5) -> the model file's decision rule.
+
+    Discrete models are scored as the points arrive: each non-zero step's
+    orientation symbol updates the forward pass at once. Gaussian models
+    (:mod:`sw_hps.gaussian_hmm`) need the whole gesture (its length and end
+    normalise the features), so the points are buffered (at most the app's
+    ``max_points``) and scored when the gesture ends. Either way the
+    orientation symbols are counted: fewer than ``min_symbols`` is "too short".
 
     Parameters
     ----------
-    models : GestureModels
-        One HMM per class (their ``num_symbols`` must be 8).
+    models : GestureModels or GaussianGestureModels
+        One HMM per class (discrete ones use the 8 orientation symbols).
     min_symbols : int >= 1
-        Fewer symbols than this is a rejection.
+        Fewer non-zero steps than this is a rejection.
     """
 
-    def __init__(self, models: GestureModels, min_symbols: int = DEFAULT_MIN_SYMBOLS):
+    def __init__(self, models, min_symbols: int = DEFAULT_MIN_SYMBOLS):
         if isinstance(min_symbols, bool) or not isinstance(min_symbols, int) or min_symbols < 1:
             raise ValueError(f"min_symbols must be an int >= 1, got {min_symbols!r}")
         self.models = models
         self.min_symbols = min_symbols
-        self._stream = models.stream()
+        self.streaming = models.emission == "discrete"
+        self._stream = models.stream() if self.streaming else None
         self.reset()
 
     def reset(self) -> None:
         """Start a new gesture."""
-        self._stream.reset()
+        if self._stream is not None:
+            self._stream.reset()
         self._last_point: tuple[int, int] | None = None
+        self._points: list[np.ndarray] = []
+        self._scores: np.ndarray | None = None
         self.num_points = 0
         self.symbols: list[int] = []
 
     def add_points(self, points) -> int:
-        """Take raw points ``(n, 2)`` (10.8 fixed point, any integers); feed the
-        symbol of every non-zero step, including the one from the previous call's
-        last point. Returns the number of symbols fed."""
+        """Take raw points ``(n, 2)`` (10.8 fixed point, any integers); count
+        (and for discrete models feed) the symbol of every non-zero step,
+        including the one from the previous call's last point. Returns the
+        number of symbols."""
         points = np.asarray(points, dtype=np.int64).reshape(-1, 2)
         if not len(points):
             return 0
         self.num_points += len(points)
+        if not self.streaming:
+            self._points.append(points)
+            self._scores = None
         if self._last_point is not None:
             points = np.concatenate([np.array([self._last_point], dtype=np.int64), points])
         self._last_point = (int(points[-1, 0]), int(points[-1, 1]))
@@ -244,27 +259,35 @@ class GestureClassifier:
         return fed
 
     def feed_symbol(self, symbol: int) -> None:
-        """One forward-pass update with ``symbol`` (0..7)."""
-        self._stream.update(symbol)
+        """One symbol (0..7): a forward-pass update of discrete models."""
+        if self._stream is not None:
+            self._stream.update(symbol)
         self.symbols.append(int(symbol))
 
     @property
     def num_symbols(self) -> int:
-        return self._stream.length
+        return len(self.symbols)
 
     def scores(self) -> np.ndarray:
-        """Log-likelihood per class of the symbols so far."""
-        return self._stream.log_likelihoods()
+        """Log-likelihood per class of the gesture so far (Gaussian models:
+        of the buffered points, computed once per gesture end)."""
+        if self.streaming:
+            return self._stream.log_likelihoods()
+        if self._scores is None:
+            points = np.concatenate(self._points) if self._points else np.zeros((0, 2))
+            scores = self.models.scores_of_points(points) if len(points) else None
+            self._scores = np.full(len(self.models.class_names), -np.inf) \
+                if scores is None else scores
+        return self._scores
 
     def decide(self) -> tuple[int, str | None]:
-        """``(class_index, None)`` or ``(-1, reason)`` for the symbols so far (S3)."""
+        """``(class_index, None)`` or ``(-1, reason)`` for the gesture so far (S3):
+        too short, no finite likelihood, or refused by the model file's
+        rejection thresholds (not a gesture)."""
         if self.num_symbols < self.min_symbols:
             return -1, (f"too short: {self.num_symbols} symbols from {self.num_points} "
                         f"points (min_symbols={self.min_symbols})")
-        best = best_class(self.scores())
-        if best < 0:
-            return -1, f"every model gives probability 0 to the {self.num_symbols} symbols"
-        return best, None
+        return self.models.decide(self.scores(), self.num_symbols)
 
 
 def _is_real(value) -> bool:
@@ -329,7 +352,7 @@ class GestureApp:
                  max_bad_points: int = DEFAULT_MAX_BAD_POINTS,
                  frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
                  clock: Callable[[], float] = time.monotonic):
-        if models.num_symbols != 8:
+        if models.emission == "discrete" and models.num_symbols != 8:
             raise ValueError(f"models must use the 8 orientation symbols, "
                              f"got num_symbols={models.num_symbols}")
         for name, value in (("max_points", max_points), ("max_pairs_per_poll", max_pairs_per_poll)):

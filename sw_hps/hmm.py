@@ -1,19 +1,33 @@
-"""Discrete left-right HMMs for the seven gestures: model file and forward
-algorithm (thesis §7.4, chapter 8; Rabiner's scaled forward recursion).
+"""Gesture HMMs: the model file, the thesis' discrete left-right HMMs and
+their forward algorithm (thesis §7.4, chapter 8; Rabiner's scaled forward
+recursion), and the rejection rule every model file may carry.
 
 Runs on the board's ARM: Python 3 and numpy only, nothing else from this
 project. Training lives in :mod:`recognition`; both read and write the same
 JSON model file through :func:`load_models` / :func:`save_models`.
 
-Model file (JSON)::
+Model file (JSON), version 2::
 
-    {"format": "stereogest-hmm", "version": 1, "num_symbols": 8,
+    {"format": "stereogest-hmm", "version": 2,
+     "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
+     "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
+     "meta": {...},                      # free-form: training options, accuracy
+     # discrete (this module):
+     "num_symbols": 8,
      "models": [{"pi": [...], "A": [[...]], "B": [[...]]}, ...],
-     "meta": {...}}                      # free-form: training options, accuracy
+     # gaussian (sw_hps.gaussian_hmm):
+     "features": {"names": [...], "resample": 64, "weights": [...]},
+     "models": [{"components": [{"stay": [...], "mean": [[...]], "var": [[...]]}, ...]}, ...]}
 
-One model per class; each has N states (N may differ between classes), A is
-N x N, B is N x num_symbols, pi has N entries; every row sums to 1.
+Version 1 files (discrete, no ``emission`` and no ``rejection``) still load.
+Discrete: one model per class; each has N states (N may differ between
+classes), A is N x N, B is N x num_symbols, pi has N entries; every row sums
+to 1.
+
+Rejection: the best class c is refused when the gesture's log-likelihood
+under c divided by its length (symbols, or feature vectors) is below
+``thresholds[c]`` (the decision is then "none").
 """
 from __future__ import annotations
 
@@ -24,11 +38,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "DiscreteHMM", "GestureModels",
-           "ForwardStream", "best_class", "load_models", "save_models"]
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "EMISSIONS", "DiscreteHMM", "GestureModels",
+           "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
+           "save_models"]
 
 MODEL_FORMAT = "stereogest-hmm"
-MODEL_VERSION = 1
+#: Version written; 1 (discrete, no rejection) is still read.
+MODEL_VERSION = 2
+#: Emission models a model file may hold.
+EMISSIONS = ("discrete", "gaussian")
 _ROW_TOLERANCE = 1e-6
 #: Symbols between rescalings of the forward vector in ForwardStream.feed.
 _RESCALE_EVERY = 4
@@ -192,6 +210,10 @@ class GestureModels:
     class_names: tuple[str, ...]
     models: tuple[DiscreteHMM, ...]
     meta: dict = field(default_factory=dict, compare=False)
+    #: Per class, the lowest log-likelihood per symbol accepted (None: never refuse).
+    thresholds: tuple[float, ...] | None = None
+
+    emission = "discrete"
 
     def __post_init__(self):
         names = tuple(str(n) for n in self.class_names)
@@ -201,6 +223,7 @@ class GestureModels:
             raise ValueError(f"{len(names)} class_names but {len(self.models)} models")
         object.__setattr__(self, "class_names", names)
         object.__setattr__(self, "models", tuple(self.models))
+        object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
         ForwardStream(self.models)  # checks the symbol counts agree
 
     @property
@@ -220,21 +243,40 @@ class GestureModels:
         gives the sequence zero probability."""
         return best_class(self.scores(symbols))
 
+    def decide(self, scores, steps: int) -> tuple[int, str | None]:
+        """``(class, None)`` or ``(-1, reason)`` for the scores of ``steps`` symbols."""
+        return decide(scores, steps, self.thresholds, self.class_names)
+
+    def with_thresholds(self, thresholds) -> "GestureModels":
+        return GestureModels(self.class_names, self.models, dict(self.meta), thresholds)
+
     def to_dict(self) -> dict:
-        return {"format": MODEL_FORMAT, "version": MODEL_VERSION,
+        return {"format": MODEL_FORMAT, "version": MODEL_VERSION, "emission": self.emission,
                 "num_symbols": self.num_symbols, "class_names": list(self.class_names),
                 "models": [{"pi": m.pi.tolist(), "A": m.A.tolist(), "B": m.B.tolist()}
                            for m in self.models],
+                "rejection": None if self.thresholds is None else
+                {"statistic": "mean log-likelihood per symbol",
+                 "thresholds": list(self.thresholds)},
                 "meta": self.meta}
 
     @classmethod
     def from_dict(cls, data) -> "GestureModels":
+        """A discrete or a Gaussian model set (:class:`sw_hps.gaussian_hmm.
+        GaussianGestureModels`), as the file's ``emission`` says."""
         if not isinstance(data, dict):
             raise ValueError("model file must hold a JSON object")
         if data.get("format") != MODEL_FORMAT:
             raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
-        if data.get("version") != MODEL_VERSION:
-            raise ValueError(f"version must be {MODEL_VERSION}, got {data.get('version')!r}")
+        version = data.get("version")
+        if version not in (1, MODEL_VERSION) or isinstance(version, bool):
+            raise ValueError(f"version must be 1 or {MODEL_VERSION}, got {version!r}")
+        emission = data.get("emission", "discrete") if version == MODEL_VERSION else "discrete"
+        if emission not in EMISSIONS:
+            raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+        if emission == "gaussian":
+            from .gaussian_hmm import GaussianGestureModels
+            return GaussianGestureModels.from_dict(data)
         names = data.get("class_names")
         entries = data.get("models")
         if not isinstance(names, list) or not isinstance(entries, list):
@@ -247,11 +289,49 @@ class GestureModels:
                 models.append(DiscreteHMM(entry["pi"], entry["A"], entry["B"]))
             except ValueError as exc:
                 raise ValueError(f"model of class {name!r}: {exc}") from None
-        result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}))
+        if len(names) != len(entries):
+            raise ValueError(f"{len(names)} class_names but {len(entries)} models")
+        rejection = data.get("rejection")
+        if rejection is not None and (not isinstance(rejection, dict)
+                                      or "thresholds" not in rejection):
+            raise ValueError("rejection must be null or an object with thresholds")
+        result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
+                     None if rejection is None else rejection["thresholds"])
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")
         return result
+
+
+def check_thresholds(thresholds, num_classes: int) -> tuple[float, ...] | None:
+    """``None`` or ``num_classes`` finite numbers (the rejection rule)."""
+    if thresholds is None:
+        return None
+    try:
+        arr = np.array(thresholds, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (num_classes,) or not np.isfinite(arr).all():
+        raise ValueError(f"rejection thresholds must be {num_classes} finite numbers (one per "
+                         f"class), got {thresholds!r}")
+    return tuple(float(t) for t in arr)
+
+
+def decide(scores, steps: int, thresholds, class_names) -> tuple[int, str | None]:
+    """The best class, or -1 and the reason it was refused.
+
+    Refused when no score is finite, or when the best class' log-likelihood
+    per step (``score / steps``) is below its threshold.
+    """
+    best = best_class(scores)
+    if best < 0:
+        return -1, f"every model gives probability 0 to the {steps} steps"
+    if thresholds is not None:
+        per_step = float(scores[best]) / max(steps, 1)
+        if per_step < thresholds[best]:
+            return -1, (f"not a gesture: best class {class_names[best]!r} scores "
+                        f"{per_step:.3f} per step, below its threshold {thresholds[best]:.3f}")
+    return best, None
 
 
 def best_class(scores) -> int:

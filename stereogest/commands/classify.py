@@ -1,10 +1,19 @@
 """Classify every trajectory of a labelled dataset with a model file (the
-board's decision: the class whose HMM gives the highest forward likelihood)
-and print JSON: accuracy (correct / samples; rejected samples count as
-errors), the confusion matrix (rows = true class, columns = decision, in the
-model's class order), class_names, samples, rejected (no symbol, no finite
-likelihood under any model, or a label the model does not know) and
-unknown_labels."""
+board's decision: the class whose HMM gives the highest forward likelihood,
+refused when the model file's rejection rule says it is not a gesture) and
+print JSON:
+
+* ``accuracy``: correct / in-vocabulary samples (label among the model's
+  classes); refused samples count as errors;
+* ``rejection_rate_in``: in-vocabulary samples refused / in-vocabulary samples;
+* ``rejection_rate_out``: samples whose label the model does not know that
+  were refused / such samples (null when there are none);
+* ``confusion``: rows = true class, columns = decision, in the model's class
+  order, plus a last column "none" (refused);
+* ``class_names``, ``samples``, ``in_vocabulary``, ``unknown_labels``,
+  ``rejected`` (all refused samples), ``accuracy_without_rejection`` (the
+  best class whatever its score).
+"""
 from __future__ import annotations
 
 import json
@@ -16,11 +25,14 @@ HELP = "classify a labelled trajectory dataset with a model file (JSON: accuracy
 def add_arguments(p):
     p.add_argument("model", metavar="MODEL.json", help="model file written by 'stereogest train'")
     p.add_argument("data", metavar="DATA.npz",
-                   help="trajectory dataset (points, offsets, label: strings, or integers "
+                   help="trajectory dataset (points, offsets, label as strings or as integers "
                         "with class_names)")
     p.add_argument("--resample", metavar="N", default=None,
                    help="pen front end with N points, or 'camera' (default: as the model "
-                        "was trained, from its meta)")
+                        "was trained, from its meta; gaussian models always compute their "
+                        "features on the points they were trained with)")
+    p.add_argument("--confusion-png", metavar="PNG", default=None,
+                   help="also draw the confusion matrix to this PNG")
 
 
 def _front_end(option, meta) -> int | None:
@@ -49,33 +61,47 @@ def run(args) -> int:
     import numpy as np
 
     from recognition.datasets import load_trajectories
-    from recognition.features import sequences
+    from recognition.evaluation import confusion_png
+    from recognition.features import feature_sets, sequences
+    from recognition.recogniser import Recogniser
     from sw_hps.hmm import load_models
 
     models = load_models(args.model)
     resample = _front_end(args.resample, models.meta)
+    if args.confusion_png is not None and not str(args.confusion_png).endswith(".png"):
+        raise ValueError(f"--confusion-png must name a .png file, got {args.confusion_png!r}")
     data = load_trajectories(args.data)
-    seqs = sequences(data, resample=resample)
+    if models.emission == "gaussian":
+        samples = feature_sets(data, models.resample, camera=resample is None)
+    else:
+        samples = sequences(data, resample=resample)
+    decided, best = Recogniser(emission=models.emission).decisions(models, samples)
     names = models.class_names
     c = len(names)
-    confusion = np.zeros((c, c), dtype=np.int64)
-    correct = rejected = 0
-    unknown = set()
-    for seq, label in zip(seqs, data.label.tolist()):
-        if label not in names:
-            unknown.add(label)
-            rejected += 1
-            continue
-        decision = models.classify(seq) if len(seq) else -1
-        if decision < 0:
-            rejected += 1
-            continue
-        confusion[names.index(label), decision] += 1
-        correct += int(decision == names.index(label))
-    samples = len(seqs)
-    print(json.dumps({"model": str(args.model), "data": str(args.data),
-                      "resample": resample, "samples": samples, "correct": correct,
-                      "accuracy": correct / samples if samples else 0.0,
-                      "rejected": rejected, "unknown_labels": sorted(unknown),
-                      "class_names": list(names), "confusion": confusion.tolist()}))
+    labels = data.label.tolist()
+    known = np.array([label in names for label in labels], dtype=bool)
+    truth = np.array([names.index(label) if label in names else -1 for label in labels])
+    confusion = np.zeros((c, c + 1), dtype=np.int64)
+    np.add.at(confusion, (truth[known], np.where(decided[known] >= 0, decided[known], c)), 1)
+    inside = int(known.sum())
+    outside = int((~known).sum())
+    correct = int((decided[known] == truth[known]).sum())
+    refused_in = int((decided[known] < 0).sum())
+    refused_out = int((decided[~known] < 0).sum())
+    report = {"model": str(args.model), "data": str(args.data), "emission": models.emission,
+              "resample": resample, "samples": len(samples), "in_vocabulary": inside,
+              "correct": correct, "accuracy": correct / inside if inside else None,
+              "accuracy_without_rejection":
+                  float((best[known] == truth[known]).mean()) if inside else None,
+              "rejection_rate_in": refused_in / inside if inside else None,
+              "rejection_rate_out": refused_out / outside if outside else None,
+              "rejected": refused_in + refused_out,
+              "unknown_labels": sorted({x for x, k in zip(labels, known) if not k}),
+              "class_names": list(names), "confusion": confusion.tolist()}
+    if args.confusion_png is not None:
+        confusion_png(confusion, names, args.confusion_png,
+                      title=f"{args.data}: {100 * (report['accuracy'] or 0):.2f} % "
+                            f"({inside} samples)")
+        report["confusion_png"] = str(args.confusion_png)
+    print(json.dumps(report))
     return 0

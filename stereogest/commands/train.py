@@ -1,12 +1,22 @@
-"""Train one discrete left-right HMM per gesture class with Baum-Welch (thesis
-§7.4, eq. 29-33) from a labelled trajectory dataset, and write the model file
-the board application loads. With --cv-states, first cross-validate every
-number of states in the range (thesis Fig. 108: JSON and PNG report), then
-train the final models on all the data with the best one.
+"""Train one left-right HMM per gesture class from a labelled trajectory
+dataset and write the model file the board application loads.
 
-Trajectories become orientation symbols through the camera front end (the
-FPGA's centroid smoothing and gesture spotting), or, with --resample N, as pen
-strokes resampled to N points equally spaced along the path."""
+--emission gaussian (the default, the best in the README's table): whole-
+gesture features (direction, position, arc fraction, turn) with Gaussian
+emissions, several components per class (recognition.gaussian_train).
+--emission discrete: the thesis' 8 orientation symbols and Baum-Welch (§7.4,
+eq. 29-33); with --states 5 and no floor it is §9.4's recogniser. With
+--cv-states (discrete only), first cross-validate every number of states in
+the range (thesis Fig. 108: JSON and PNG report), then train the final
+models on all the data with the best one.
+
+Unless --no-reject, the model file carries per-class rejection thresholds
+calibrated on held-out groups of subjects (recognition.recogniser): a
+gesture scoring below its class' threshold is refused ("none").
+
+Trajectories go through the camera front end (the FPGA's centroid smoothing
+and gesture spotting), or, with --resample N, are pen strokes resampled to N
+points equally spaced along the path."""
 from __future__ import annotations
 
 import json
@@ -23,6 +33,7 @@ _DEFAULT_STATES = 5
 _DEFAULT_FOLDS = 10
 
 
+
 def add_arguments(p):
     from recognition.hmm_train import (DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER,
                                        DEFAULT_TOL, MAX_STATES)
@@ -31,9 +42,28 @@ def add_arguments(p):
                         "class_names; optional subject, or writer as the subject)")
     p.add_argument("-o", "--output", metavar="MODEL.json", required=True,
                    help="model file to write")
+    from recognition.gaussian_train import DEFAULT_STATES as _GAUSSIAN_STATES
+    from recognition.gaussian_train import MAX_AUTO_COMPONENTS as _MAX_AUTO
+    from recognition.gaussian_train import SAMPLES_PER_COMPONENT as _PER_COMPONENT
+    from recognition.recogniser import (DEFAULT_CALIBRATION_FOLDS, DEFAULT_EMISSION,
+                                        DEFAULT_REJECT_QUANTILE, EMISSIONS)
+    p.add_argument("--emission", choices=EMISSIONS, default=DEFAULT_EMISSION,
+                   help=f"emission model (default {DEFAULT_EMISSION})")
     p.add_argument("--states", type=int, default=None, metavar="N",
-                   help=f"states per model, 1..{MAX_STATES} (default {_DEFAULT_STATES}; "
-                        "not with --cv-states)")
+                   help=f"states per model, 1..{MAX_STATES} (default {_DEFAULT_STATES} discrete, "
+                        f"{_GAUSSIAN_STATES} gaussian; not with --cv-states)")
+    p.add_argument("--components", type=int, default=None, metavar="K",
+                   help="gaussian: most components per class, 1..16 (default: one per "
+                        f"{_PER_COMPONENT} training samples, 1..{_MAX_AUTO})")
+    p.add_argument("--no-reject", dest="reject", action="store_false",
+                   help="no rejection thresholds (every gesture gets a class)")
+    p.add_argument("--reject-quantile", type=float, default=DEFAULT_REJECT_QUANTILE,
+                   metavar="Q", help="refuse below this quantile of held-out in-vocabulary "
+                                     f"per-step scores, 0 <= Q < 0.5 (default "
+                                     f"{DEFAULT_REJECT_QUANTILE})")
+    p.add_argument("--calibration-folds", type=int, default=DEFAULT_CALIBRATION_FOLDS,
+                   metavar="K", help="groups of subjects held out to calibrate the "
+                                     f"rejection, >= 2 (default {DEFAULT_CALIBRATION_FOLDS})")
     p.add_argument("--cv-states", metavar="RANGE", default=None,
                    help="cross-validate these state counts, e.g. 2-20 or 3,5,8, then train "
                         "with the best")
@@ -90,7 +120,33 @@ def _check_options(args) -> list[int] | None:
     from recognition.features import RESAMPLE_RANGE
     from recognition.hmm_train import MAX_STATES
     cv_states = None
-    if args.cv_states is not None:
+    gaussian = args.emission == "gaussian"
+    if gaussian:
+        from recognition.gaussian_train import DEFAULT_RESAMPLE
+        if args.cv_states is not None:
+            raise ValueError("--cv-states applies to --emission discrete (the gaussian "
+                             "defaults were chosen by leave-one-subject-out; README)")
+        top = (args.resample or DEFAULT_RESAMPLE) - 1
+        if args.states is not None and not 1 <= args.states <= min(MAX_STATES, top):
+            raise ValueError(f"--states must be in 1..{min(MAX_STATES, top)} for gaussian "
+                             f"models of {top + 1} resampled points, got {args.states}")
+        if args.resample is not None and args.resample < 3:
+            raise ValueError(f"--resample must be >= 3 for gaussian models, got {args.resample}")
+    elif args.components is not None:
+        raise ValueError("--components applies to --emission gaussian")
+    if args.components is not None and not 1 <= args.components <= 16:
+        raise ValueError(f"--components must be in 1..16, got {args.components}")
+    if not 0.0 <= args.reject_quantile < 0.5:
+        raise ValueError(f"--reject-quantile must be in [0, 0.5), got {args.reject_quantile}")
+    if args.calibration_folds < 2:
+        raise ValueError(f"--calibration-folds must be >= 2, got {args.calibration_folds}")
+    if gaussian:
+        for option, value in (("--folds", args.folds), ("--groups", args.groups),
+                              ("--scheduler", args.scheduler), ("--jobs", args.jobs),
+                              ("--report", args.report)):
+            if value is not None:
+                raise ValueError(f"{option} applies to --cv-states (--emission discrete)")
+    elif args.cv_states is not None:
         if args.states is not None:
             raise ValueError("--states and --cv-states exclude each other (--cv-states "
                              "chooses the number of states)")
@@ -124,7 +180,7 @@ def _check_options(args) -> list[int] | None:
     if args.expected_length < 1:
         raise ValueError(f"--expected-length must be >= 1, got {args.expected_length}")
     most = max(cv_states) if cv_states else args.states
-    if most > args.expected_length:
+    if not gaussian and most > args.expected_length:
         option = "--cv-states" if cv_states else "--states"
         raise ValueError(f"{option} must be <= --expected-length ({args.expected_length}): "
                          f"the initial model needs T/N >= 1, got {most} states")
@@ -165,6 +221,8 @@ def run(args) -> int:
     start = time.perf_counter()
     data_path = Path(args.data)
     data = load_trajectories(data_path)
+    if args.emission == "gaussian":
+        return _run_gaussian(args, data, data_path, say, start)
     groups = _groups(data_path, args.groups, data) if args.groups is not None else None
     front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
     say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
@@ -219,12 +277,56 @@ def run(args) -> int:
     say(f"training {len(data.class_names)} models of {states} states on all {len(seqs)} "
         "trajectories")
     models = train_models(seqs, data.label, data.class_names, states, meta=meta, **options)
+    if args.reject:
+        from recognition.recogniser import Recogniser
+        recogniser = Recogniser(emission="discrete", resample=args.resample, states=states,
+                                emission_floor=args.emission_floor,
+                                reject_quantile=args.reject_quantile,
+                                calibration_folds=args.calibration_folds)
+        thresholds, calibration = recogniser.calibrate(seqs, data.label, data.class_names,
+                                                       data.subject, progress=say)
+        models.meta["rejection"] = calibration
+        models = models.with_thresholds(thresholds)
+        summary["rejection"] = calibration
     save_models(models, args.output)
     training = models.meta["training"]
     summary.update(states=states,
                    iterations={k: v["iterations"] for k, v in training.items()},
                    converged=all(v["converged"] for v in training.values()),
                    seconds=round(time.perf_counter() - start, 2))
+    say(f"wrote {args.output}")
+    print(json.dumps(summary))
+    return 0
+
+
+def _run_gaussian(args, data, data_path, say, start) -> int:
+    from recognition.recogniser import Recogniser
+    from sw_hps.hmm import save_models
+
+    recogniser = Recogniser(emission="gaussian", resample=args.resample, states=args.states,
+                            components=args.components, reject=args.reject,
+                            reject_quantile=args.reject_quantile,
+                            calibration_folds=args.calibration_folds)
+    front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
+    say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
+        f"front end: {front_end}; gaussian emissions")
+    samples = recogniser.samples(data)
+    still = sum(1 for x in samples if x is None)
+    if still:
+        say(f"{still} trajectories have no motion (ignored in training)")
+    meta = {"dataset": str(data_path), "resample": args.resample,
+            "front_end": "camera" if args.resample is None else "pen"}
+    say(f"training {len(data.class_names)} models of {recogniser.num_states} states on all "
+        f"{len(samples)} trajectories")
+    models = recogniser.fit(samples, data.label, data.class_names, groups=data.subject,
+                            meta=meta, progress=say)
+    save_models(models, args.output)
+    summary = {"output": str(args.output), "classes": list(data.class_names),
+               "sequences": len(samples), "emission": "gaussian",
+               "states": recogniser.num_states,
+               "components": {n: len(c) for n, c in zip(models.class_names, models.components)},
+               "rejection": models.meta.get("rejection"),
+               "seconds": round(time.perf_counter() - start, 2)}
     say(f"wrote {args.output}")
     print(json.dumps(summary))
     return 0

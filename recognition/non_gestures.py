@@ -1,0 +1,87 @@
+"""Trajectories that are not gestures, for measuring rejection.
+
+* :func:`random_walks`: pen-like paths of Gaussian steps (no shape at all).
+* :func:`scribbles`: smooth random curves, sums of a few random sinusoids
+  per axis (shape-like, but no gesture's shape).
+* :func:`wandering_hands`: per-frame hand centroid tracks at the camera's
+  scale and frame rate, as :mod:`recognition.corpus` draws them (rest, then
+  the hand wanders on a smooth random path for 40-80 frames, then rest,
+  with jitter and tremor): what the camera front end sees when a person
+  moves a hand without making a gesture.
+
+All are labelled ``"none"`` and seeded.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from recognition.datasets import TrajectorySet
+
+__all__ = ["NONE_LABEL", "random_walks", "scribbles", "wandering_hands"]
+
+NONE_LABEL = "none"
+
+
+def _check(count, seed):
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"count must be an integer >= 1, got {count!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+
+
+def random_walks(count: int, seed: int = 0, points: tuple[int, int] = (30, 120)) -> TrajectorySet:
+    """``count`` random walks of ``points`` (uniform in the range) Gaussian steps."""
+    _check(count, seed)
+    rng = np.random.default_rng(seed)
+    paths = []
+    for _ in range(count):
+        n = int(rng.integers(points[0], points[1] + 1))
+        paths.append(200.0 + np.cumsum(rng.normal(0.0, 5.0, size=(n, 2)), axis=0))
+    return TrajectorySet.from_list(paths, [NONE_LABEL] * count)
+
+
+def _smooth_curve(rng: np.random.Generator, n: int, amplitude: float) -> np.ndarray:
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    curve = np.zeros((n, 2))
+    for _ in range(int(rng.integers(2, 4))):
+        freq = rng.uniform(0.5, 3.0, size=2)
+        phase = rng.uniform(0.0, 2 * np.pi, size=2)
+        curve += rng.uniform(0.3, 1.0, size=2) * np.sin(2 * np.pi * freq * s + phase)
+    curve -= curve[0]
+    span = np.abs(curve).max()
+    return curve * (amplitude / span if span > 0 else 0.0)
+
+
+def scribbles(count: int, seed: int = 0, points: tuple[int, int] = (30, 120)) -> TrajectorySet:
+    """``count`` smooth random curves, 100 px across, with a little pen noise."""
+    _check(count, seed)
+    rng = np.random.default_rng(seed)
+    paths = []
+    for _ in range(count):
+        n = int(rng.integers(points[0], points[1] + 1))
+        paths.append(200.0 + _smooth_curve(rng, n, 100.0) + rng.normal(0.0, 0.5, size=(n, 2)))
+    return TrajectorySet.from_list(paths, [NONE_LABEL] * count)
+
+
+def wandering_hands(count: int, seed: int = 0, width: int = 640,
+                    height: int = 480) -> TrajectorySet:
+    """``count`` per-frame centroid tracks (integer pixels, 30 frames/s) of a
+    hand that rests, wanders 40-80 frames over 40-120 px (scaled to the
+    frame), and rests again."""
+    _check(count, seed)
+    rng = np.random.default_rng(seed)
+    scale = width / 640.0
+    tracks = []
+    for _ in range(count):
+        pre, motion, post = (int(rng.integers(15, 31)), int(rng.integers(40, 81)),
+                             int(rng.integers(15, 31)))
+        rest = np.array([width * rng.uniform(0.35, 0.65), height * rng.uniform(0.45, 0.7)])
+        path = _smooth_curve(rng, motion, rng.uniform(40.0, 120.0) * scale)
+        positions = np.concatenate([np.repeat(rest[None], pre, axis=0), rest + path,
+                                    np.repeat((rest + path[-1])[None], post, axis=0)])
+        t = np.arange(len(positions)) / 30.0
+        positions += 1.5 * scale * np.sin(2 * np.pi * rng.uniform(3, 6) * t[:, None]
+                                          + rng.uniform(0, 2 * np.pi, size=2))
+        positions += rng.normal(0.0, 1.2 * scale, size=positions.shape)
+        tracks.append(np.clip(np.floor(positions), 0, (width - 1, height - 1)))
+    return TrajectorySet.from_list(tracks, [NONE_LABEL] * count)

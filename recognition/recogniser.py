@@ -1,0 +1,222 @@
+"""The recogniser as one object: front end, emission model, training,
+rejection calibration and evaluation, for both emission models.
+
+* ``emission="discrete"``: the thesis' 8 orientation symbols and discrete
+  left-right HMMs (§7.4; :mod:`recognition.hmm_train`); with 5 states and no
+  emission floor it is §9.4's recogniser.
+* ``emission="gaussian"``: whole-gesture features (:mod:`sw_hps.stroke`)
+  and left-right HMMs with diagonal Gaussian emissions, several components
+  per class (:mod:`recognition.gaussian_train`).
+
+Both score by the forward algorithm and decide with the rule the model file
+carries (:func:`sw_hps.hmm.decide`): the best class, refused when its
+log-likelihood per step is below the class' threshold.
+
+Rejection thresholds are calibrated on people the models did not see:
+the training data is split into ``calibration_folds`` groups of subjects
+(or stratified folds without subjects), each group is scored by models
+trained on the others, and a class' threshold is the ``reject_quantile``
+quantile of the per-step scores of its correctly classified held-out
+samples.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+from recognition.datasets import TrajectorySet
+from recognition.features import RESAMPLE_RANGE, feature_sets, sequences
+from recognition.gaussian_train import (DEFAULT_RESAMPLE, DEFAULT_STATES, DEFAULT_VAR_FLOOR,
+                                        DEFAULT_WEIGHTS, train_gaussian_models)
+from recognition.hmm_train import DEFAULT_EXPECTED_LENGTH, train_models
+
+__all__ = ["EMISSIONS", "DEFAULT_EMISSION", "DEFAULT_REJECT_QUANTILE", "Recogniser",
+           "fold_of_groups"]
+
+EMISSIONS = ("discrete", "gaussian")
+#: The best emission model (README table): what ``stereogest train`` uses.
+DEFAULT_EMISSION = "gaussian"
+#: Quantile of held-out in-vocabulary per-step scores below which a gesture is refused.
+DEFAULT_REJECT_QUANTILE = 0.005
+#: Groups of subjects used to calibrate the thresholds.
+DEFAULT_CALIBRATION_FOLDS = 3
+#: States of the discrete models when not given (thesis §9.4).
+DISCRETE_STATES = 5
+
+
+def fold_of_groups(labels, groups, folds: int, seed: int = 0) -> np.ndarray:
+    """Fold of each sample: whole groups (subjects) dealt to ``folds`` folds in
+    sorted order, or, without groups, a stratified deal of each class."""
+    labels = np.asarray([str(x) for x in labels])
+    if groups is not None:
+        distinct, inverse = np.unique(np.asarray(groups), return_inverse=True)
+        return (inverse % min(folds, distinct.size)).astype(np.int64)
+    rng = np.random.default_rng(seed)
+    fold = np.empty(labels.size, dtype=np.int64)
+    dealt = 0
+    for name in sorted(set(labels.tolist())):
+        members = rng.permutation(np.flatnonzero(labels == name))
+        fold[members] = (dealt + np.arange(members.size)) % folds
+        dealt += members.size
+    return fold
+
+
+@dataclass(frozen=True)
+class Recogniser:
+    """Options of one recogniser variant (every field has the best default).
+
+    Attributes
+    ----------
+    emission : str
+        ``"gaussian"`` or ``"discrete"``.
+    resample : int or None
+        Pen front end with this many points (None: the camera front end,
+        whose Gaussian features resample to :data:`DEFAULT_RESAMPLE`).
+    states : int or None
+        States per model (None: 16 Gaussian, 5 discrete).
+    components : int or None
+        Gaussian components per class (None: by sample count).
+    var_floor : float
+        Gaussian variance floor.
+    emission_floor : float
+        Discrete emission floor (0 = thesis).
+    reject : bool
+        Calibrate rejection thresholds.
+    reject_quantile : float
+        In [0, 0.5).
+    calibration_folds : int
+        >= 2.
+    """
+    emission: str = DEFAULT_EMISSION
+    resample: int | None = None
+    states: int | None = None
+    components: int | None = None
+    var_floor: float = DEFAULT_VAR_FLOOR
+    emission_floor: float = 0.0
+    reject: bool = True
+    reject_quantile: float = DEFAULT_REJECT_QUANTILE
+    calibration_folds: int = DEFAULT_CALIBRATION_FOLDS
+
+    def __post_init__(self):
+        if self.emission not in EMISSIONS:
+            raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {self.emission!r}")
+        lo, hi = RESAMPLE_RANGE
+        if self.resample is not None and not lo <= self.resample <= hi:
+            raise ValueError(f"resample must be in {lo}..{hi}, got {self.resample}")
+        if not 0.0 <= self.reject_quantile < 0.5:
+            raise ValueError(f"reject_quantile must be in [0, 0.5), got {self.reject_quantile}")
+        if self.calibration_folds < 2:
+            raise ValueError(f"calibration_folds must be >= 2, got {self.calibration_folds}")
+
+    @property
+    def num_states(self) -> int:
+        if self.states is not None:
+            return self.states
+        return DEFAULT_STATES if self.emission == "gaussian" else DISCRETE_STATES
+
+    @property
+    def feature_points(self) -> int:
+        """Points the Gaussian features resample to."""
+        return self.resample if self.resample is not None and self.resample >= 3 \
+            else DEFAULT_RESAMPLE
+
+    def describe(self) -> dict:
+        return dict(asdict(self), states=self.num_states)
+
+    # ---- samples --------------------------------------------------------------------
+    def samples(self, data: TrajectorySet) -> list:
+        """Symbol sequences (discrete) or feature arrays / None (Gaussian)."""
+        if self.emission == "discrete":
+            return sequences(data, resample=self.resample)
+        return feature_sets(data, self.feature_points, camera=self.resample is None)
+
+    # ---- training -------------------------------------------------------------------
+    def _fit(self, samples, labels, class_names, meta=None):
+        if self.emission == "discrete":
+            return train_models(samples, labels, class_names, self.num_states,
+                                emission_floor=self.emission_floor,
+                                expected_length=max(DEFAULT_EXPECTED_LENGTH, self.num_states),
+                                meta=meta)
+        return train_gaussian_models(samples, labels, class_names, num_states=self.num_states,
+                                     components=self.components, weights=DEFAULT_WEIGHTS,
+                                     var_floor=self.var_floor, resample=self.feature_points,
+                                     meta=meta)
+
+    def fit(self, samples, labels, class_names, groups=None, meta=None, progress=None):
+        """Models of every class, with calibrated thresholds if ``reject``."""
+        labels = [str(x) for x in labels]
+        info = {"recogniser": self.describe()}
+        info.update(meta or {})
+        models = self._fit(samples, labels, class_names, info)
+        if not self.reject:
+            return models
+        thresholds, calibration = self.calibrate(samples, labels, class_names, groups,
+                                                 progress=progress)
+        models.meta["rejection"] = calibration
+        return models.with_thresholds(thresholds)
+
+    def calibrate(self, samples, labels, class_names, groups=None, progress=None):
+        """Per-class thresholds from held-out groups (module docstring)."""
+        names = tuple(class_names)
+        labels = np.asarray([str(x) for x in labels])
+        fold = fold_of_groups(labels, groups, self.calibration_folds)
+        held_scores = [[] for _ in names]
+        for f in np.unique(fold):
+            train = fold != f
+            present = set(labels[train].tolist())
+            if not set(names) <= present:
+                continue                          # a class only in this group: skip it
+            if progress is not None:
+                progress(f"calibrating rejection: fold {f + 1} of {fold.max() + 1}")
+            models = replace(self, reject=False)._fit(
+                [s for s, k in zip(samples, train) if k], labels[train], names)
+            test = np.flatnonzero(~train)
+            scores, steps = self.scores(models, [samples[i] for i in test])
+            for i, row, n in zip(test, scores, steps):
+                truth = names.index(labels[i])
+                if n > 0 and np.isfinite(row[truth]) and int(np.argmax(row)) == truth:
+                    held_scores[truth].append(row[truth] / n)
+        thresholds = []
+        for c, values in enumerate(held_scores):
+            if not values:
+                raise ValueError(f"cannot calibrate rejection: class {names[c]!r} has no "
+                                 "correctly classified held-out sample (use --no-reject)")
+            thresholds.append(float(np.quantile(values, self.reject_quantile)))
+        info = {"statistic": "per-step log-likelihood", "quantile": self.reject_quantile,
+                "folds": int(fold.max()) + 1,
+                "grouped": groups is not None,
+                "held_out_samples": [len(v) for v in held_scores]}
+        return thresholds, info
+
+    # ---- scoring --------------------------------------------------------------------
+    def scores(self, models, samples) -> tuple[np.ndarray, np.ndarray]:
+        """(S, C) log-likelihoods and (S,) steps (0 = nothing to score)."""
+        c = len(models.class_names)
+        out = np.full((len(samples), c), -np.inf)
+        steps = np.zeros(len(samples), dtype=np.int64)
+        if models.emission == "discrete":
+            for i, seq in enumerate(samples):
+                if len(seq):
+                    out[i] = models.scores(seq)
+                    steps[i] = len(seq)
+            return out, steps
+        index = [i for i, x in enumerate(samples) if x is not None]
+        if index:
+            out[index] = models.scores_of_features(np.stack([samples[i] for i in index]))
+            steps[index] = models.steps
+        return out, steps
+
+    def decisions(self, models, samples) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample the class index (-1 refused) and the unthresholded best
+        class (-1 when nothing could be scored)."""
+        scores, steps = self.scores(models, samples)
+        decided = np.full(len(samples), -1, dtype=np.int64)
+        best = np.full(len(samples), -1, dtype=np.int64)
+        for i, (row, n) in enumerate(zip(scores, steps)):
+            if n == 0:
+                continue
+            decided[i] = models.decide(row, int(n))[0]
+            if np.isfinite(row).any():
+                best[i] = int(np.argmax(row))
+        return decided, best
