@@ -1,6 +1,7 @@
 """The train and classify subcommands, called in-process: a round trip on a tiny
 synthetic dataset, cross-validation with its report, model meta, and one-line
-errors (exit status 2)."""
+errors (exit status 2); discrete models (FAST) and the default gaussian ones
+with rejection (rejection rates, the confusion PNG)."""
 import json
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 from recognition.datasets import TrajectorySet, save_trajectories
 from recognition.features import sequences
+from sw_hps.gaussian_hmm import GaussianGestureModels
 from sw_hps.hmm import load_models
 from tests.cli_helpers import assert_one_line_error, run
 
@@ -40,8 +42,8 @@ def dataset(tmp_path_factory):
     return path
 
 
-FAST = ["--tol", "1e-3", "--max-iter", "200", "--expected-length", "30",
-        "--emission-floor", "1e-3"]
+FAST = ["--emission", "discrete", "--tol", "1e-3", "--max-iter", "200",
+        "--expected-length", "30", "--emission-floor", "1e-3"]
 
 
 def test_train_and_classify_round_trip(tmp_path, capsys, dataset):
@@ -66,9 +68,12 @@ def test_train_and_classify_round_trip(tmp_path, capsys, dataset):
     report = json.loads(out)
     assert report["resample"] == 32                     # from the model's meta
     assert report["samples"] == 18 and report["rejected"] == 0
+    assert report["in_vocabulary"] == 18 and report["emission"] == "discrete"
     assert report["class_names"] == ["down-left", "right", "up"]
-    assert report["accuracy"] == 1.0
-    assert report["confusion"] == [[6, 0, 0], [0, 6, 0], [0, 0, 6]]
+    assert report["accuracy"] == report["accuracy_without_rejection"] == 1.0
+    assert report["rejection_rate_in"] == 0.0 and report["rejection_rate_out"] is None
+    # Rows: true class; columns: decision, the last "none" (refused).
+    assert report["confusion"] == [[6, 0, 0, 0], [0, 6, 0, 0], [0, 0, 6, 0]]
     # The same decisions as the library.
     seqs = sequences(strokes(), resample=32)
     assert all(models.class_names[models.classify(s)] == label
@@ -85,9 +90,17 @@ def test_classify_counts_unknown_labels_and_overrides_resample(tmp_path, capsys,
     assert status == 0, err
     report = json.loads(out)
     assert report["resample"] == 16 and report["samples"] == 8
-    assert report["unknown_labels"] == ["circle"] and report["rejected"] >= 2
-    assert sum(map(sum, report["confusion"])) == 8 - report["rejected"]
-    assert report["accuracy"] == report["correct"] / 8
+    assert report["unknown_labels"] == ["circle"]
+    # Unknown labels are not in the confusion matrix (rows: the model's classes);
+    # accuracy is over the in-vocabulary samples, refused ones count as errors.
+    assert report["in_vocabulary"] == 6
+    assert sum(map(sum, report["confusion"])) == 6
+    assert all(len(row) == 4 for row in report["confusion"])
+    assert report["accuracy"] == report["correct"] / 6
+    refused_in = sum(row[-1] for row in report["confusion"])
+    assert report["rejection_rate_in"] == refused_in / 6
+    refused_out = report["rejected"] - refused_in
+    assert 0 <= refused_out <= 2 and report["rejection_rate_out"] == refused_out / 2
 
 
 def test_train_with_cross_validation(tmp_path, capsys, dataset):
@@ -126,18 +139,23 @@ def test_train_leave_one_subject_out_with_report_prefix(tmp_path, capsys, datase
     assert load_models(model).meta["cv"]["groups"] == "subject"
 
 
-def test_train_camera_front_end(tmp_path, capsys):
-    """Per-frame centroids with rest before and after: the FPGA's feature chain."""
+def camera_dataset(target, per_class=4):
+    """Per-frame centroids with rest before and after, no subjects."""
     rng = np.random.default_rng(1)
     trajs, labels = [], []
     for name, (dx, dy) in STROKES.items():
-        for _ in range(4):
+        for _ in range(per_class):
             move = np.linspace(0, 1, int(rng.integers(30, 40)))[:, None] * [dx, dy] * 200
             path = np.concatenate([np.zeros((20, 2)), move, np.repeat(move[-1:], 25, 0)])
             trajs.append(path + 300 + rng.normal(0, 0.5, path.shape))
             labels.append(name)
-    data = tmp_path / "camera.npz"
-    save_trajectories(TrajectorySet.from_list(trajs, labels), data)
+    save_trajectories(TrajectorySet.from_list(trajs, labels), target)
+    return target
+
+
+def test_train_camera_front_end(tmp_path, capsys):
+    """Per-frame centroids with rest before and after: the FPGA's feature chain."""
+    data = camera_dataset(tmp_path / "camera.npz")
     model = tmp_path / "model.json"
     status, out, err = run(capsys, "train", data, "-o", model, "--states", "2", *FAST)
     assert status == 0, err
@@ -145,6 +163,25 @@ def test_train_camera_front_end(tmp_path, capsys):
     status, out, _ = run(capsys, "classify", model, data)
     report = json.loads(out)
     assert report["resample"] is None and report["accuracy"] == 1.0
+
+
+def test_train_gaussian_camera_front_end(tmp_path, capsys):
+    """Gaussian features of the camera points; rejection calibrated on stratified
+    folds (no subjects)."""
+    data = camera_dataset(tmp_path / "camera.npz", per_class=6)
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", data, "-o", model, "--states", "4",
+                           "--components", "1", "--quiet")
+    assert status == 0, err
+    summary = json.loads(out)
+    assert summary["rejection"]["grouped"] is False and summary["rejection"]["folds"] == 3
+    models = load_models(model)
+    assert models.meta["resample"] is None and models.meta["front_end"] == "camera"
+    assert models.resample == 64                      # the default feature resampling
+    status, out, _ = run(capsys, "classify", model, data)
+    report = json.loads(out)
+    assert report["resample"] is None and report["emission"] == "gaussian"
+    assert report["accuracy_without_rejection"] == 1.0 and report["accuracy"] >= 17 / 18
 
 
 @pytest.mark.parametrize("argv, words", [
@@ -166,8 +203,8 @@ def test_train_camera_front_end(tmp_path, capsys):
 ])
 def test_train_errors_name_the_option(tmp_path, capsys, dataset, argv, words):
     model = tmp_path / "model.json"
-    status, out, err = run(capsys, "train", dataset, "-o", model, "--expected-length", "30",
-                           *argv)
+    status, out, err = run(capsys, "train", dataset, "-o", model, "--emission", "discrete",
+                           "--expected-length", "30", *argv)
     assert status == 2
     assert_one_line_error(err, "train", *words)
     assert not model.exists()
@@ -204,3 +241,115 @@ def test_file_errors(tmp_path, capsys, dataset):
     status, _, err = run(capsys, "classify", model, dataset, "--resample", "x")
     assert status == 2
     assert_one_line_error(err, "classify", "--resample")
+
+
+# ---------------------------------------------------------------- gaussian models (default)
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+GAUSSIAN = ["--resample", "16", "--states", "4", "--components", "1"]
+
+
+@pytest.fixture(scope="module")
+def gaussian_model(tmp_path_factory, dataset):
+    """Trained with the default emission (gaussian) and rejection."""
+    from stereogest import cli
+    model = tmp_path_factory.mktemp("gauss") / "model.json"
+    assert cli.main(["train", str(dataset), "-o", str(model), *GAUSSIAN, "--quiet"]) == 0
+    return model
+
+
+def test_train_gaussian_is_the_default_and_calibrates_rejection(tmp_path, capsys, dataset):
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", dataset, "-o", model, *GAUSSIAN)
+    assert status == 0, err
+    summary = json.loads(out.strip().splitlines()[-1])
+    assert summary["emission"] == "gaussian" and summary["states"] == 4
+    assert summary["components"] == {"down-left": 1, "right": 1, "up": 1}
+    assert summary["rejection"]["folds"] == 3 and summary["rejection"]["grouped"]
+    assert "calibrating rejection: fold 3 of 3" in err
+    models = load_models(model)
+    assert isinstance(models, GaussianGestureModels) and models.resample == 16
+    assert len(models.thresholds) == 3 and models.meta["resample"] == 16
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]
+
+
+def test_classify_gaussian_counts_refused_unknown_labels(tmp_path, capsys, gaussian_model):
+    other = tmp_path / "other.npz"
+    save_trajectories(strokes(per_class=2, seed=5, extra_label="circle"), other)  # circle: down
+    png = tmp_path / "confusion.png"
+    status, out, err = run(capsys, "classify", gaussian_model, other, "--confusion-png", png)
+    assert status == 0 and err == ""
+    report = json.loads(out)
+    assert report["emission"] == "gaussian" and report["samples"] == 8
+    assert report["in_vocabulary"] == 6 and report["unknown_labels"] == ["circle"]
+    # The model refuses the strokes of the direction it never saw.
+    refused_in = sum(row[-1] for row in report["confusion"])
+    refused_out = report["rejected"] - refused_in
+    assert refused_out == 2 and report["rejection_rate_out"] == 1.0
+    assert report["rejection_rate_in"] == refused_in / 6
+    assert report["accuracy"] == report["correct"] / 6 == 1.0
+    assert report["accuracy_without_rejection"] == 1.0
+    assert report["confusion"] == [[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, 2, 0]]
+    assert report["confusion_png"] == str(png)
+    assert png.read_bytes()[:8] == PNG_SIGNATURE
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["confusion.png", "other.npz"]
+
+
+def test_classify_gaussian_without_unknown_labels(capsys, dataset, gaussian_model):
+    status, out, err = run(capsys, "classify", gaussian_model, dataset)
+    assert status == 0 and err == ""
+    report = json.loads(out)
+    assert report["rejection_rate_out"] is None and report["unknown_labels"] == []
+    assert report["in_vocabulary"] == report["samples"] == 18
+    assert report["rejected"] == sum(row[-1] for row in report["confusion"])
+    assert report["accuracy"] == report["correct"] / 18 >= 17 / 18
+    assert "confusion_png" not in report
+
+
+def test_classify_confusion_png_must_be_a_png(tmp_path, capsys, dataset, gaussian_model):
+    status, out, err = run(capsys, "classify", gaussian_model, dataset,
+                           "--confusion-png", tmp_path / "name.txt")
+    assert status == 2 and out == ""
+    assert_one_line_error(err, "classify", "--confusion-png", "name.txt")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_train_without_rejection_when_calibration_cannot_work(tmp_path, capsys):
+    """A class drawn by one subject only has no held-out sample: a one-line
+    error pointing at --no-reject; with it, a model without thresholds."""
+    data = strokes(per_class=6)
+    subject = np.where(data.label == "up", 0, data.subject)
+    path = tmp_path / "one-subject.npz"
+    save_trajectories(TrajectorySet(data.points, data.offsets, data.label, subject), path)
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", path, "-o", model, *GAUSSIAN, "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "train", "'up'", "--no-reject")
+    assert not model.exists()
+    status, out, err = run(capsys, "train", path, "-o", model, *GAUSSIAN, "--no-reject",
+                           "--quiet")
+    assert status == 0, err
+    assert load_models(model).thresholds is None
+    assert json.loads(out)["rejection"] is None
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--cv-states", "2-3"], ["--cv-states", "--emission discrete"]),
+    (["--folds", "3"], ["--folds", "--emission discrete"]),
+    (["--groups", "subject"], ["--groups"]),
+    (["--emission", "discrete", "--components", "2"], ["--components", "gaussian"]),
+    (["--components", "0"], ["--components", "1..16"]),
+    (["--components", "17"], ["--components", "1..16"]),
+    (["--resample", "2"], ["--resample", ">= 3"]),
+    (["--resample", "16", "--states", "16"], ["--states", "1..15"]),
+    (["--states", "0"], ["--states"]),
+    (["--reject-quantile", "0.5"], ["--reject-quantile"]),
+    (["--reject-quantile", "-0.1"], ["--reject-quantile"]),
+    (["--calibration-folds", "1"], ["--calibration-folds"]),
+    (["--emission", "discrete", "--calibration-folds", "1"], ["--calibration-folds"]),
+])
+def test_gaussian_train_errors_name_the_option(tmp_path, capsys, dataset, argv, words):
+    model = tmp_path / "model.json"
+    status, out, err = run(capsys, "train", dataset, "-o", model, *argv)
+    assert status == 2
+    assert_one_line_error(err, "train", *words)
+    assert not model.exists()

@@ -1,11 +1,15 @@
-"""recognition.features: equidistant resampling, the pen and camera symbol front ends."""
+"""recognition.features: equidistant resampling, the pen and camera symbol front ends,
+and the points and features the Gaussian models take (camera_points, feature_sets)."""
 import math
 
 import numpy as np
 import pytest
 
 from recognition.datasets import TrajectorySet
-from recognition.features import camera_symbols, pen_symbols, resample_path, sequences
+from recognition.features import (camera_points, camera_symbols, feature_sets, pen_symbols,
+                                   resample_path, sequences)
+from sw_hps.orientation import NO_SYMBOL, orientation_symbols
+from sw_hps.stroke import stroke_features
 
 # Symbol k points at 45k degrees, counter-clockwise with y up on screen; in image axes
 # (y down) its unit step is (cos, -sin).
@@ -146,3 +150,42 @@ def test_sequences_uses_the_chosen_front_end():
     assert [set(s.tolist()) for s in camera] == [{0}, {4}]
     pen = sequences(data, resample=16)
     assert [s.tolist() for s in pen] == [[0] * 15, [4] * 15]
+
+
+# ---------------------------------------------------------------- points for the Gaussian models
+
+
+def test_camera_points_are_the_pairs_behind_the_camera_symbols():
+    """The smoothed 10.8 positions of the longest flagged run: their orientation
+    symbols are camera_symbols (what the board pops from the FIFO)."""
+    first = swipe(0, rest=10, motion=12, amplitude=80.0)
+    second = swipe(2, rest=30, motion=40, amplitude=200.0, start=tuple(first[-1]))
+    trajectory = np.vstack([first, second])
+    points = camera_points(trajectory)
+    assert points.ndim == 2 and points.shape[1] == 2 and points.dtype.kind == "i"
+    symbols = orientation_symbols(points)
+    assert np.array_equal(symbols[symbols != NO_SYMBOL], camera_symbols(trajectory))
+    # 10.8 fixed point: the run moves up (y decreases) from near the second start
+    assert points[0, 1] > points[-1, 1]
+    assert abs(points[0, 0] / 256 - first[-1, 0]) < 10
+    assert camera_points(np.tile([300.0, 250.0], (80, 1))).shape == (0, 2)
+    with pytest.raises(ValueError, match="trajectory"):
+        camera_points([[1.0, -2.0], [3.0, 4.0]])
+
+
+def test_feature_sets_of_both_front_ends():
+    still = np.tile([300.0, 250.0], (40, 1))
+    data = TrajectorySet.from_list([swipe(0), swipe(2), still], ["right", "up", "none"])
+    pen = feature_sets(data, 12, camera=False)
+    assert np.array_equal(pen[0], stroke_features(swipe(0), 12))
+    assert pen[0].shape == (11, 6) and pen[2] is None
+    camera = feature_sets(data, 12, camera=True)
+    assert np.array_equal(camera[1], stroke_features(camera_points(swipe(2)), 12))
+    assert camera[2] is None                      # nothing flagged
+    assert np.allclose(camera[0][:, :2], [1.0, 0.0], atol=1e-3)   # rightward
+    assert np.allclose(camera[1][:, :2], [0.0, 1.0], atol=1e-3)   # upward
+
+
+def test_resample_path_is_the_boards():
+    import sw_hps.stroke
+    assert resample_path is sw_hps.stroke.resample_path

@@ -153,6 +153,121 @@ def test_zero_probability_gesture_is_rejected(caplog):
     assert "rejected" in caplog.text
 
 
+def test_discrete_models_with_thresholds_refuse_below_them():
+    x, y, flag = gesture_frames("left")
+    plain = run_on_trajectory(MODELS, x, y, flag).results[0]
+    per_step = plain.scores[GESTURE_NAMES.index("left")] / plain.num_symbols
+    accepting = MODELS.with_thresholds([per_step - 1e-6] * len(GESTURE_NAMES))
+    assert run_on_trajectory(accepting, x, y, flag).recognised == ["left"]
+    refusing = MODELS.with_thresholds([per_step + 1e-6] * len(GESTURE_NAMES))
+    link = RecordingLink()
+    run = run_on_trajectory(refusing, x, y, flag, link=link)
+    (result,) = run.results
+    assert result.outcome == "rejected" and "'left'" in result.reason
+    assert result.scores == plain.scores and link.sent == []
+
+
+# ---- gaussian models with rejection ----------------------------------------------------------
+GAUSSIAN_CLASSES = ("forward", "left", "rotate-right", "stop")
+
+
+@pytest.fixture(scope="module")
+def gaussian_models():
+    """Gaussian models of four gestures drawn by three synthetic people (aspect,
+    time warp, size, jitter), rejection calibrated on held-out people."""
+    from recognition.recogniser import Recogniser
+    from sim.gesture_shapes import random_time_warp
+    from sw_hps.stroke import stroke_features
+    rng = np.random.default_rng(0)
+    feats, labels, people = [], [], []
+    for name in GAUSSIAN_CLASSES:
+        for i in range(6):
+            n = int(rng.integers(40, 80))
+            path = gesture_path(name, n, aspect=float(rng.uniform(0.8, 1.25)),
+                                time_warp=random_time_warp(n, rng))
+            path = path * rng.uniform(100, 160) + rng.normal(0, 0.5, (n, 2))
+            feats.append(stroke_features(path, 20))
+            labels.append(name)
+            people.append(i % 3)
+    recogniser = Recogniser(resample=20, states=5, components=1)
+    models = recogniser.fit(feats, labels, GAUSSIAN_CLASSES, groups=people)
+    assert models.emission == "gaussian" and len(models.thresholds) == 4
+    return models
+
+
+def random_walk_frames(seed, points=30, rest=15):
+    """A flagged hand movement that is no gesture, inside the frame."""
+    rng = np.random.default_rng(seed)
+    walk = np.clip(np.cumsum(rng.normal(0, 6, (points, 2)), axis=0) + (320, 240), 20, 400)
+    xy = np.concatenate([np.tile(walk[:1], (rest, 1)), walk, np.tile(walk[-1:], (rest, 1))])
+    flag = np.r_[np.zeros(rest), np.ones(points), np.zeros(rest)].astype(bool)
+    return xy[:, 0], xy[:, 1], flag
+
+
+@pytest.mark.parametrize("name", GAUSSIAN_CLASSES)
+def test_gaussian_models_recognise_a_gesture_and_send_its_telegram(gaussian_models, name):
+    link = RecordingLink()
+    x, y, flag = gesture_frames(name)
+    run = run_on_trajectory(gaussian_models, x, y, flag, link=link)
+    assert run.recognised == [name]
+    assert link.sent == [telegram(name)] == run.telegrams
+    (result,) = run.results
+    assert result.recognised and result.sent and result.reason is None
+    assert result.num_points == flag.sum()
+    # Scored once at the gesture's end on the buffered raw points: the offline scores.
+    raw = np.array([[to_fixed(a), to_fixed(b)] for a, b in zip(x[flag], y[flag])])
+    assert np.allclose(result.scores, gaussian_models.scores_of_points(raw), rtol=1e-12)
+    symbols = orientation_symbols(raw)
+    assert list(result.symbols) == symbols[symbols != NO_SYMBOL].tolist()
+    assert run.app.state is State.WAIT
+
+
+def test_gaussian_models_refuse_a_non_gesture_and_send_nothing(gaussian_models, caplog):
+    caplog.set_level(logging.INFO, logger="sw_hps")
+    link = RecordingLink()
+    x, y, flag = random_walk_frames(3)
+    run = run_on_trajectory(gaussian_models, x, y, flag, link=link)
+    (result,) = run.results
+    assert result.outcome == "rejected" and result.class_index == -1
+    assert result.class_name is None and result.telegram is None and not result.sent
+    best = GAUSSIAN_CLASSES[int(np.argmax(result.scores))]
+    assert "not a gesture" in result.reason and repr(best) in result.reason
+    assert "threshold" in result.reason and result.reason in caplog.text
+    assert link.sent == [] and run.telegrams == [] and run.recognised == []
+    assert result.num_symbols >= 5                # refused for its shape, not for being short
+
+
+def test_gaussian_models_in_a_sequence_with_non_gestures(gaussian_models):
+    parts = [gesture_frames("stop"), random_walk_frames(4), gesture_frames("rotate-right"),
+             gesture_frames("rotate-left")]         # rotate-left is not in the vocabulary
+    x, y, flag = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    link = RecordingLink()
+    run = run_on_trajectory(gaussian_models, x, y, flag, link=link, reads_per_frame=2)
+    assert [r.outcome for r in run.results] == ["recognised", "rejected", "recognised",
+                                                "rejected"]
+    assert run.recognised == ["stop", "rotate-right"]
+    assert link.sent == [telegram("stop"), telegram("rotate-right")]
+
+
+def test_gaussian_classifier_buffers_the_points(gaussian_models):
+    classifier = GestureClassifier(gaussian_models, min_symbols=1)
+    assert not classifier.streaming
+    assert classifier.decide()[0] == -1                       # nothing yet: too short
+    x, y, flag = gesture_frames("left")
+    raw = np.array([[to_fixed(a), to_fixed(b)] for a, b in zip(x[flag], y[flag])])
+    for chunk in np.array_split(raw, 7):
+        classifier.add_points(chunk)
+    assert classifier.num_points == len(raw)
+    assert np.array_equal(classifier.scores(), gaussian_models.scores_of_points(raw))
+    assert classifier.decide() == (GAUSSIAN_CLASSES.index("left"), None)
+    classifier.reset()
+    classifier.add_points(np.repeat(raw[:1], 10, axis=0))     # points, but no motion
+    assert classifier.num_symbols == 0 and classifier.num_points == 10
+    assert np.isneginf(classifier.scores()).all()
+    index, reason = classifier.decide()
+    assert index == -1 and "too short" in reason
+
+
 # ---- faults ------------------------------------------------------------------------------------
 def test_fifo_full_drops_the_gesture_and_clears():
     app, peripheral = make_app(depth=20)
