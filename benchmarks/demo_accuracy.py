@@ -25,17 +25,23 @@ from pathlib import Path
 GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
 
 
-def one_clip(job):
-    gesture, seed, width, height, exe = job
-    if exe is None:
-        return model_clip(gesture, seed, width, height)
-    from sim.model.pipeline import PipelineParams
-    from sim.render import render_clip
-    from soc.end_to_end import clip_end_to_end
+def _models(path):
+    from stereogest.commands.demo import DEFAULT_MODEL
     from sw_hps.hmm import load_models
 
     import sw_hps
-    models = load_models(Path(sw_hps.__file__).parent / "models" / "thesis7.json")
+    return load_models(path or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
+
+
+def one_clip(job):
+    gesture, seed, width, height, exe, model = job
+    if exe is None:
+        return model_clip(gesture, seed, width, height, model)
+    from sim.model.pipeline import PipelineParams
+    from sim.render import render_clip
+    from soc.end_to_end import clip_end_to_end
+
+    models = _models(model)
     params = PipelineParams.for_frame(width)
     start = time.perf_counter()
     clip = render_clip(gesture, seed, width, height)
@@ -51,16 +57,14 @@ def one_clip(job):
             "cycles": result.cycles, "seconds": round(time.perf_counter() - start, 1)}
 
 
-def model_clip(gesture, seed, width, height):
+def model_clip(gesture, seed, width, height, model=None):
     """The golden model instead of the hardware (bit-exact with it), the
     application on a simulated FIFO, as ``stereogest demo --backend model``."""
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
     from sw_hps.app import run_on_trajectory
-    from sw_hps.hmm import load_models
 
-    import sw_hps
-    models = load_models(Path(sw_hps.__file__).parent / "models" / "thesis7.json")
+    models = _models(model)
     params = PipelineParams.for_frame(width)
     start = time.perf_counter()
     clip = render_clip(gesture, seed, width, height)
@@ -83,6 +87,8 @@ def main(argv=None):
     ap.add_argument("--first-seed", type=int, default=2001)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", metavar="FILE", default=None)
+    ap.add_argument("--model", metavar="MODEL.json", default=None,
+                    help="board model file (default: the demo's, sw_hps/models/gestures7.json)")
     ap.add_argument("--backend", choices=("verilator", "model"), default="verilator",
                     help="model: the golden model only (minutes instead of hours)")
     args = ap.parse_args(argv)
@@ -95,7 +101,7 @@ def main(argv=None):
     if args.backend == "verilator":
         print(f"building the Verilated system at {args.width}x{args.height} ...", flush=True)
         exe = build_system(args.width, args.height, PipelineParams.for_frame(args.width))
-    jobs = [(g, args.first_seed + k, args.width, args.height, exe)
+    jobs = [(g, args.first_seed + k, args.width, args.height, exe, args.model)
             for k in range(args.per_gesture) for g in GESTURES]
     rows = []
     print("| gesture | seed | frames | recognised | FIFO = model | VGA = model | UART = "

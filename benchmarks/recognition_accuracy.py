@@ -1,79 +1,226 @@
-"""Recognition accuracy figures of the README (issue: recognition, section 6).
+"""Recognition and rejection figures of the README, on people the models never saw.
 
-1. The synthetic corpus of the seven thesis gestures (``stereogest gestures``,
-   180 per class, 3 people, seed 1): 10-fold cross-validation with the thesis
-   configuration (camera front end, 5 states, no emission floor) and a few
-   state counts.
-2. The $1 unistroke logs (data/gestures/dollar1_unistroke, 16 gestures, 7
-   subjects): leave-one-subject-out accuracy of the same recogniser, pen front
-   end (``--resample``), and what the emission floor, the resampling and the
-   number of states are worth.
+Sections (``--section``, repeatable; default all):
 
-Run: ``python benchmarks/recognition_accuracy.py [--quick]``. Prints Markdown
-tables and a final JSON line.
+``robot``
+    The seven thesis gestures, camera front end: models trained on the
+    synthetic corpus (``stereogest gestures --per-class 180 --people 3
+    --seed 1``) and tested on a corpus of other seeds (other people), with
+    the thesis recogniser and the default one; non-gestures (random walks,
+    scribbles, wandering hands) presented to the default model.
+``dollar``
+    The $1 unistroke logs (16 gestures, 7 subjects), leave-one-subject-out,
+    pen front end (64 points), every variant; the open-set rejection
+    protocol (12 gestures trained, the other 4 presented as non-gestures,
+    rotated, each subject held out in turn); random walks and scribbles.
+``pendigits``
+    UCI pendigits training writers (10 digits, 30 writers), writer-grouped
+    5-fold cross-validation (6 whole writers held out per fold), every variant.
+
+Rejection thresholds are always calibrated on the training subjects only.
+Writes ``--json`` (default build/recognition_accuracy.json) and the
+confusion matrices of the default recogniser to ``--docs`` (default docs/).
+Prints Markdown tables.
+
+Run: ``python benchmarks/recognition_accuracy.py [--section dollar] [--quick]``.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from recognition.corpus import synthetic_corpus
-from recognition.crossval import cross_validate
 from recognition.datasets import load_trajectories
-from recognition.features import sequences
+from recognition.evaluation import confusion_png, grouped_cross_validation, open_set_rejection
+from recognition.non_gestures import random_walks, scribbles, wandering_hands
+from recognition.recogniser import Recogniser
 
 ROOT = Path(__file__).resolve().parent.parent
 DOLLAR = ROOT / "data" / "gestures" / "dollar1_unistroke" / "dollar1_unistroke.npz"
+PENDIGITS = ROOT / "data" / "gestures" / "uci_pendigits" / "pendigits_orig.npz"
+SECTIONS = ("robot", "dollar", "pendigits")
 
 
-def synthetic(states, folds=10):
-    data = synthetic_corpus(per_class=180, people=3, seed=1)
-    seqs = sequences(data)
-    start = time.perf_counter()
-    result = cross_validate(seqs, data.label, states, folds=folds, seed=0)
-    return result, time.perf_counter() - start
+def variants(resample):
+    """(name, recogniser) of the README table, the default last."""
+    return [
+        ("discrete, 5 states, no floor (thesis §9.4)",
+         Recogniser(emission="discrete", resample=resample, states=5, reject=False)),
+        ("discrete, 12 states, floor 1e-3",
+         Recogniser(emission="discrete", resample=resample, states=12, emission_floor=1e-3,
+                    reject=False)),
+        ("gaussian, 16 states, 1 component",
+         Recogniser(resample=resample, components=1, reject=False)),
+        ("default: gaussian, 16 states, components by samples, rejection",
+         Recogniser(resample=resample)),
+    ]
 
 
-def dollar(states, resample, floor):
+def _cpu() -> float:
+    return time.process_time()
+
+
+def _table(title, rows):
+    print(f"\n{title}\n")
+    print("| recogniser | accuracy | accuracy without rejection | refused | CPU s |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        refused = "-" if r["rejection_rate_in"] is None else f"{100 * r['rejection_rate_in']:.2f} %"
+        print(f"| {r['variant']} | {100 * r['accuracy']:.2f} % | "
+              f"{100 * r['accuracy_without_rejection']:.2f} % | {refused} | {r['cpu_s']:.0f} |",
+              flush=True)
+
+
+def cross_validated(name, data, groups, folds, resample, docs, quick):
+    rows = []
+    chosen = variants(resample)
+    if quick:
+        chosen = chosen[-1:]
+    for label, recogniser in chosen:
+        start = _cpu()
+        outcome = grouped_cross_validation(recogniser, data, groups, folds=folds)
+        row = dict(outcome.summary(), variant=label, cpu_s=round(_cpu() - start, 1),
+                   recogniser=recogniser.describe())
+        if not recogniser.reject:
+            row["rejection_rate_in"] = None
+        rows.append(row)
+        if recogniser.reject and docs is not None:
+            confusion_png(outcome.confusion(), outcome.class_names, docs / f"confusion_{name}.png",
+                          title=f"{name}: {100 * outcome.accuracy:.2f} % on held-out people "
+                                f"({outcome.truth.size} samples)")
+            row["confusion"] = outcome.confusion().tolist()
+    return rows
+
+
+def refusals(models, recogniser, data, camera=False):
+    samples = replace(recogniser, resample=None if camera else recogniser.resample).samples(data)
+    decided, _ = recogniser.decisions(models, samples)
+    return float((decided < 0).mean())
+
+
+def section_robot(docs, quick):
+    per_class = 60 if quick else 180
+    train = synthetic_corpus(per_class=per_class, people=3, seed=1)
+    test = synthetic_corpus(per_class=10 if quick else 30, people=3, seed=77)
+    out = {"train": len(train), "test": len(test)}
+    rows = []
+    for label, recogniser in [("discrete, 5 states, no floor (thesis §9.4)",
+                               Recogniser(emission="discrete", states=5, reject=False)),
+                              ("default: gaussian with rejection", Recogniser())]:
+        start = _cpu()
+        models = recogniser.fit(recogniser.samples(train), train.label, train.class_names,
+                                groups=train.subject)
+        decided, best = recogniser.decisions(models, recogniser.samples(test))
+        truth = np.array([train.class_names.index(x) for x in test.label])
+        row = {"variant": label, "accuracy": float((decided == truth).mean()),
+               "accuracy_without_rejection": float((best == truth).mean()),
+               "rejection_rate_in": float((decided < 0).mean()) if recogniser.reject else None,
+               "cpu_s": round(_cpu() - start, 1)}
+        rows.append(row)
+        if recogniser.reject:
+            count = 50 if quick else 500
+            out["non_gestures_refused"] = {
+                "wandering_hands": refusals(models, recogniser, wandering_hands(count, seed=3),
+                                            camera=True),
+                "random_walks_as_tracks": refusals(models, recogniser,
+                                                   _as_tracks(random_walks(count, seed=1)),
+                                                   camera=True),
+                "count": count}
+            if docs is not None:
+                c = len(models.class_names)
+                conf = np.zeros((c, c + 1), dtype=np.int64)
+                np.add.at(conf, (truth, np.where(decided >= 0, decided, c)), 1)
+                confusion_png(conf, models.class_names, docs / "confusion_robot.png",
+                              title=f"robot gestures, other seeds: {100 * row['accuracy']:.2f} %")
+    _table("Seven robot gestures, camera front end, trained on seed 1, tested on seed 77 "
+           f"({len(test)} trajectories)", rows)
+    print(f"\nnon-gestures refused by the default model: {out['non_gestures_refused']}")
+    out["rows"] = rows
+    return out
+
+
+def _as_tracks(data):
+    """Pen random walks moved into the frame as per-frame centroid tracks
+    (with rest frames so that the spotting can flag them)."""
+    tracks = []
+    for t in data.trajectories():
+        t = t - t.min(axis=0) + (200.0, 150.0)
+        rest = np.repeat(t[:1], 20, axis=0)
+        tracks.append(np.clip(np.concatenate([rest, t, np.repeat(t[-1:], 20, axis=0)]),
+                              0, (639, 479)))
+    from recognition.datasets import TrajectorySet
+    return TrajectorySet.from_list(tracks, data.label)
+
+
+def section_dollar(docs, quick):
     data = load_trajectories(DOLLAR)
-    seqs = sequences(data, resample=resample)
-    start = time.perf_counter()
-    result = cross_validate(seqs, data.label, states, groups=data.subject,
-                            emission_floor=floor)
-    return result, time.perf_counter() - start
+    rows = cross_validated("dollar1", data, data.subject, None, 64, docs, quick)
+    _table("$1 unistroke logs, 16 gestures, leave-one-subject-out (7 subjects), 64 points", rows)
+    recogniser = Recogniser(resample=64)
+    start = _cpu()
+    open_set = open_set_rejection(recogniser, data, data.subject, held_classes=4,
+                                  folds=3 if quick else None)
+    open_set["cpu_s"] = round(_cpu() - start, 1)
+    print(f"\nopen set (12 trained, 4 presented as non-gestures, rotated): refused "
+          f"{100 * open_set['refused_out']:.2f} % of non-gestures, "
+          f"{100 * open_set['refused_in']:.2f} % of gestures; accuracy on gestures "
+          f"{100 * open_set['accuracy_in']:.2f} %")
+    for r in open_set["rotations"]:
+        print(f"  held out {', '.join(r['held_out_classes'])}: refused "
+              f"{100 * r['refused_out'] / r['out']:.1f} % of them, "
+              f"{100 * r['refused_in'] / r['in']:.2f} % of the others")
+    models = recogniser.fit(recogniser.samples(data), data.label, data.class_names,
+                            groups=data.subject)
+    count = 50 if quick else 500
+    noise = {"random_walks": refusals(models, recogniser, random_walks(count, seed=1)),
+             "scribbles": refusals(models, recogniser, scribbles(count, seed=2)),
+             "count": count}
+    print(f"non-gestures refused by the model of all 16 gestures: {noise}")
+    return {"rows": rows, "open_set": open_set, "non_gestures_refused": noise}
+
+
+def section_pendigits(docs, quick):
+    data = load_trajectories(PENDIGITS)
+    if quick:
+        keep = np.flatnonzero(data.subject <= 6)
+        data = data.subset(keep)
+    rows = cross_validated("pendigits", data, data.subject, 5 if not quick else 3, 64, docs,
+                           quick)
+    _table("UCI pendigits training writers, 10 digits, writer-grouped 5-fold CV, 64 points",
+           rows)
+    return {"rows": rows}
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer variants")
+    parser.add_argument("--section", action="append", choices=SECTIONS, default=None)
+    parser.add_argument("--quick", action="store_true",
+                        help="the default recogniser only, on less data (a smoke run)")
+    parser.add_argument("--json", default=str(ROOT / "build" / "recognition_accuracy.json"))
+    parser.add_argument("--docs", default=str(ROOT / "docs"),
+                        help="directory for the confusion PNGs ('' for none)")
     args = parser.parse_args(argv)
+    docs = Path(args.docs) if args.docs else None
+    if docs is not None:
+        docs.mkdir(parents=True, exist_ok=True)
     figures = {}
-
-    states = [5] if args.quick else [3, 5, 8]
-    result, seconds = synthetic(states)
-    print("Synthetic corpus, 7 gestures x 180, 3 people, 10-fold CV (camera front end, "
-          "no emission floor):\n")
-    print("| states | accuracy |\n|---|---|")
-    for n, acc in zip(result.state_counts, result.accuracy):
-        print(f"| {n} | {100 * acc:.2f} % |")
-    print(f"\n({seconds:.0f} s)\n")
-    figures["synthetic"] = {str(n): round(100 * a, 2)
-                            for n, a in zip(result.state_counts, result.accuracy)}
-
-    variants = [(8, 64, 0.0), (8, 64, 1e-3)] if args.quick else [
-        (5, 64, 0.0), (8, 64, 0.0), (8, 64, 1e-3), (12, 64, 1e-3), (8, 32, 1e-3)]
-    print("$1 unistroke logs, 16 gestures, leave-one-subject-out (7 subjects), pen front end:\n")
-    print("| states | resample | emission floor | accuracy |\n|---|---|---|---|")
-    figures["dollar"] = []
-    for n, resample, floor in variants:
-        result, seconds = dollar([n], resample, floor)
-        acc = 100 * result.accuracy[0]
-        print(f"| {n} | {resample} | {floor:g} | {acc:.2f} % |", flush=True)
-        figures["dollar"].append({"states": n, "resample": resample, "floor": floor,
-                                  "accuracy": round(acc, 2), "seconds": round(seconds, 1)})
-    print(json.dumps(figures))
+    run = {"robot": section_robot, "dollar": section_dollar, "pendigits": section_pendigits}
+    for name in args.section or SECTIONS:
+        start = _cpu()
+        figures[name] = run[name](docs, args.quick)
+        figures[name]["section_cpu_s"] = round(_cpu() - start, 1)
+    path = Path(args.json)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    previous = json.loads(path.read_text()) if path.exists() else {}
+    previous.update(figures)
+    path.write_text(json.dumps(previous, indent=1) + "\n")
+    print(json.dumps({k: {kk: vv for kk, vv in v.items() if kk != "rows"}
+                      for k, v in figures.items()}, default=str)[:2000])
     return 0
 
 

@@ -22,13 +22,17 @@ S2 ``READ``
     orientation symbol of each step between consecutive points
     (:func:`sw_hps.orientation.orientation_symbols` on the raw 10.8 values) is fed to
     the forward pass of every class model, one update per symbol; zero steps
-    (``NO_SYMBOL``) are dropped. Sleeps ``poll_interval`` only when nothing was
+    (``NO_SYMBOL``) are dropped. Gaussian models (the default model file) need the
+    whole gesture, so the points are buffered instead (at most ``max_points``) and
+    scored in S3; the symbols are still counted. Sleeps ``poll_interval`` only when nothing was
     available. The gesture has ended when a status read shows the gesture bit back
     at 1 and FIFO data 0 -> S3. A gesture still being read after ``heartbeat``
     seconds also gets the "alive" line.
 S3 ``CLASSIFY``
-    The class with the best log-likelihood. Rejected (logged reason) if fewer
-    than ``min_symbols`` symbols were seen or every model gives probability 0.
+    The class with the best log-likelihood. Rejected (logged reason, no telegram) if
+    fewer than ``min_symbols`` symbols were seen, every model gives probability 0,
+    or the model file's rejection rule refuses it: its log-likelihood per step is
+    below the best class' threshold (not a gesture).
 S4 ``SEND``
     Send the class' telegram (:func:`sw_hps.robot.telegram`, chosen by class *name*;
     a class whose name is not one of the seven gestures sends nothing).

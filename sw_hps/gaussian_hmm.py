@@ -255,6 +255,8 @@ class GaussianGestureModels:
             raise ValueError("class_names and models must be lists")
         if not isinstance(feats, dict):
             raise ValueError("features must be an object with names, resample and weights")
+        if len(names) != len(entries):
+            raise ValueError(f"{len(names)} class_names but {len(entries)} models")
         if feats.get("names") != list(FEATURE_NAMES):
             raise ValueError(f"features names must be {list(FEATURE_NAMES)}, got "
                              f"{feats.get('names')!r}")

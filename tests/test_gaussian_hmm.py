@@ -348,9 +348,7 @@ def test_bad_model_file_is_a_one_line_error_naming_the_problem(tmp_path, data, w
         assert word in message, (word, message)
 
 
-@pytest.mark.xfail(strict=True, reason="bug: GaussianGestureModels.from_dict zips class_names "
-                   "with models, so models beyond the class names are silently dropped "
-                   "(the discrete reader refuses them)")
+
 def test_more_models_than_class_names_is_refused(tmp_path):
     data = gaussian_dict(class_names=["left", "right"], rejection=None)
     path = tmp_path / "extra.json"

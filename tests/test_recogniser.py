@@ -230,7 +230,7 @@ def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
     """reject_quantile=0: the lowest per-step score of a correctly classified
     sample of the class, scored by models trained without its subject."""
     data, samples, _ = fitted
-    recogniser = replace(RECOGNISER, reject_quantile=0.0)
+    recogniser = replace(RECOGNISER, reject_quantile=0.0, reject_margin=0.25)
     thresholds, info = recogniser.calibrate(samples, data.label, data.class_names, data.subject)
     names = data.class_names
     lowest = [np.inf] * 3
@@ -244,8 +244,8 @@ def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
             truth = names.index(data.label[i])
             if int(np.argmax(row)) == truth:
                 lowest[truth] = min(lowest[truth], row[truth] / 15)
-    assert np.allclose(thresholds, lowest, rtol=1e-12)
-    assert info["quantile"] == 0.0
+    assert np.allclose(np.array(thresholds) + 0.25, lowest, rtol=1e-12)
+    assert info["quantile"] == 0.0 and info["margin"] == 0.25
 
 
 def test_held_out_gestures_are_accepted_and_a_random_walk_refused(fitted):

@@ -19,7 +19,7 @@ from pathlib import Path
 
 NAME = "demo"
 #: The trained model shipped with the board application (``make model`` rebuilds it).
-DEFAULT_MODEL = "thesis7.json"
+DEFAULT_MODEL = "gestures7.json"
 HELP = "render a gesture clip and run it from camera pins to robot command (the main job)"
 
 
@@ -41,7 +41,7 @@ def add_arguments(p):
                    help="pipeline stage shown on the VGA view (SW[9:7], thesis Table 22)")
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file for the board application (default: the trained "
-                        "model shipped in sw_hps/models/thesis7.json)")
+                        "model shipped in sw_hps/models/gestures7.json)")
     p.add_argument("--threads", type=int, default=None,
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")

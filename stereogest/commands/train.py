@@ -46,7 +46,8 @@ def add_arguments(p):
     from recognition.gaussian_train import MAX_AUTO_COMPONENTS as _MAX_AUTO
     from recognition.gaussian_train import SAMPLES_PER_COMPONENT as _PER_COMPONENT
     from recognition.recogniser import (DEFAULT_CALIBRATION_FOLDS, DEFAULT_EMISSION,
-                                        DEFAULT_REJECT_QUANTILE, EMISSIONS)
+                                        DEFAULT_REJECT_MARGIN, DEFAULT_REJECT_QUANTILE,
+                                        EMISSIONS)
     p.add_argument("--emission", choices=EMISSIONS, default=DEFAULT_EMISSION,
                    help=f"emission model (default {DEFAULT_EMISSION})")
     p.add_argument("--states", type=int, default=None, metavar="N",
@@ -61,6 +62,9 @@ def add_arguments(p):
                    metavar="Q", help="refuse below this quantile of held-out in-vocabulary "
                                      f"per-step scores, 0 <= Q < 0.5 (default "
                                      f"{DEFAULT_REJECT_QUANTILE})")
+    p.add_argument("--reject-margin", type=float, default=DEFAULT_REJECT_MARGIN, metavar="M",
+                   help="less this margin (per-step log-likelihood), >= 0 (default "
+                        f"{DEFAULT_REJECT_MARGIN})")
     p.add_argument("--calibration-folds", type=int, default=DEFAULT_CALIBRATION_FOLDS,
                    metavar="K", help="groups of subjects held out to calibrate the "
                                      f"rejection, >= 2 (default {DEFAULT_CALIBRATION_FOLDS})")
@@ -132,12 +136,22 @@ def _check_options(args) -> list[int] | None:
                              f"models of {top + 1} resampled points, got {args.states}")
         if args.resample is not None and args.resample < 3:
             raise ValueError(f"--resample must be >= 3 for gaussian models, got {args.resample}")
+        from recognition.hmm_train import DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER, DEFAULT_TOL
+        for option, value, default in (("--tol", args.tol, DEFAULT_TOL),
+                                       ("--max-iter", args.max_iter, DEFAULT_MAX_ITER),
+                                       ("--emission-floor", args.emission_floor, 0.0),
+                                       ("--expected-length", args.expected_length,
+                                        DEFAULT_EXPECTED_LENGTH)):
+            if value != default:
+                raise ValueError(f"{option} applies to --emission discrete")
     elif args.components is not None:
         raise ValueError("--components applies to --emission gaussian")
     if args.components is not None and not 1 <= args.components <= 16:
         raise ValueError(f"--components must be in 1..16, got {args.components}")
     if not 0.0 <= args.reject_quantile < 0.5:
         raise ValueError(f"--reject-quantile must be in [0, 0.5), got {args.reject_quantile}")
+    if not (math.isfinite(args.reject_margin) and args.reject_margin >= 0):
+        raise ValueError(f"--reject-margin must be a finite number >= 0, got {args.reject_margin}")
     if args.calibration_folds < 2:
         raise ValueError(f"--calibration-folds must be >= 2, got {args.calibration_folds}")
     if gaussian:
@@ -280,11 +294,14 @@ def run(args) -> int:
     if args.reject:
         from recognition.recogniser import Recogniser
         recogniser = Recogniser(emission="discrete", resample=args.resample, states=states,
-                                emission_floor=args.emission_floor,
+                                emission_floor=args.emission_floor, tol=args.tol,
+                                max_iter=args.max_iter, expected_length=args.expected_length,
                                 reject_quantile=args.reject_quantile,
+                                reject_margin=args.reject_margin,
                                 calibration_folds=args.calibration_folds)
-        thresholds, calibration = recogniser.calibrate(seqs, data.label, data.class_names,
-                                                       data.subject, progress=say)
+        thresholds, calibration = recogniser.calibrate(
+            seqs, data.label, data.class_names, groups if groups is not None else data.subject,
+            progress=say)
         models.meta["rejection"] = calibration
         models = models.with_thresholds(thresholds)
         summary["rejection"] = calibration
@@ -306,6 +323,7 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
     recogniser = Recogniser(emission="gaussian", resample=args.resample, states=args.states,
                             components=args.components, reject=args.reject,
                             reject_quantile=args.reject_quantile,
+                            reject_margin=args.reject_margin,
                             calibration_folds=args.calibration_folds)
     front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
     say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
