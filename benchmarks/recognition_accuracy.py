@@ -36,8 +36,10 @@ import numpy as np
 
 from recognition.corpus import synthetic_corpus
 from recognition.datasets import load_trajectories
-from recognition.evaluation import confusion_png, grouped_cross_validation, open_set_rejection
-from recognition.non_gestures import random_walks, scribbles, wandering_hands
+from recognition.evaluation import (confusion_matrix, confusion_png, grouped_cross_validation,
+                                   open_set_rejection)
+from recognition.non_gestures import (as_centroid_tracks, random_walks, scribbles,
+                                      wandering_hands)
 from recognition.recogniser import Recogniser
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -128,13 +130,11 @@ def section_robot(docs, quick):
                 "wandering_hands": refusals(models, recogniser, wandering_hands(count, seed=3),
                                             camera=True),
                 "random_walks_as_tracks": refusals(models, recogniser,
-                                                   _as_tracks(random_walks(count, seed=1)),
+                                                   as_centroid_tracks(random_walks(count, seed=1), origin=(200.0, 150.0)),
                                                    camera=True),
                 "count": count}
             if docs is not None:
-                c = len(models.class_names)
-                conf = np.zeros((c, c + 1), dtype=np.int64)
-                np.add.at(conf, (truth, np.where(decided >= 0, decided, c)), 1)
+                conf = confusion_matrix(truth, decided, len(models.class_names))
                 confusion_png(conf, models.class_names, docs / "confusion_robot.png",
                               title=f"robot gestures, other seeds: {100 * row['accuracy']:.2f} %")
     _table("Seven robot gestures, camera front end, trained on seed 1, tested on seed 77 "
@@ -142,19 +142,6 @@ def section_robot(docs, quick):
     print(f"\nnon-gestures refused by the default model: {out['non_gestures_refused']}")
     out["rows"] = rows
     return out
-
-
-def _as_tracks(data):
-    """Pen random walks moved into the frame as per-frame centroid tracks
-    (with rest frames so that the spotting can flag them)."""
-    tracks = []
-    for t in data.trajectories():
-        t = t - t.min(axis=0) + (200.0, 150.0)
-        rest = np.repeat(t[:1], 20, axis=0)
-        tracks.append(np.clip(np.concatenate([rest, t, np.repeat(t[-1:], 20, axis=0)]),
-                              0, (639, 479)))
-    from recognition.datasets import TrajectorySet
-    return TrajectorySet.from_list(tracks, data.label)
 
 
 def section_dollar(docs, quick):

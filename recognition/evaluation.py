@@ -7,7 +7,8 @@
   held-out "non-gestures" (rotating the split); models trained on the
   vocabulary of the other subjects must refuse the non-gestures and accept
   the held-out subjects' gestures.
-* :func:`confusion_png`: the confusion matrix as a picture.
+* :func:`confusion_matrix`, :func:`confusion_png`: the confusion matrix, and
+  as a picture.
 """
 from __future__ import annotations
 
@@ -19,7 +20,18 @@ import numpy as np
 
 from recognition.recogniser import Recogniser, fold_of_groups
 
-__all__ = ["CVOutcome", "grouped_cross_validation", "open_set_rejection", "confusion_png"]
+__all__ = ["CVOutcome", "confusion_matrix", "grouped_cross_validation", "open_set_rejection",
+           "confusion_png"]
+
+
+def confusion_matrix(truth, decided, num_classes: int) -> np.ndarray:
+    """(C, C + 1) counts: rows the true class index, columns the decision
+    (class index, or the last column "none" for -1)."""
+    truth = np.asarray(truth, dtype=np.int64)
+    decided = np.asarray(decided, dtype=np.int64)
+    out = np.zeros((num_classes, num_classes + 1), dtype=np.int64)
+    np.add.at(out, (truth, np.where(decided >= 0, decided, num_classes)), 1)
+    return out
 
 
 @dataclass(frozen=True)
@@ -55,10 +67,7 @@ class CVOutcome:
 
     def confusion(self) -> np.ndarray:
         """(C, C + 1): rows true class, columns decision, the last "none"."""
-        c = len(self.class_names)
-        out = np.zeros((c, c + 1), dtype=np.int64)
-        np.add.at(out, (self.truth, np.where(self.decided >= 0, self.decided, c)), 1)
-        return out
+        return confusion_matrix(self.truth, self.decided, len(self.class_names))
 
     def summary(self) -> dict:
         return {"samples": int(self.truth.size), "folds": int(self.fold.max()) + 1,

@@ -23,7 +23,8 @@ import math
 
 import numpy as np
 
-from sw_hps.gaussian_hmm import GaussianGestureModels, GaussianHMM, log_emissions
+from sw_hps.gaussian_hmm import (GaussianGestureModels, GaussianHMM, forward_log_lattice,
+                                 log_emissions)
 from sw_hps.stroke import FEATURE_NAMES
 
 __all__ = ["DEFAULT_STATES", "DEFAULT_WEIGHTS", "DEFAULT_VAR_FLOOR", "DEFAULT_ITERATIONS",
@@ -66,19 +67,6 @@ def _log_backward(log_emit, log_stay, log_move):
     return beta
 
 
-def _log_forward_all(log_emit, log_stay, log_move):
-    s, t_max, n = log_emit.shape
-    alpha = np.full((s, t_max, n), -np.inf)
-    alpha[:, 0, 0] = log_emit[:, 0, 0]
-    with np.errstate(invalid="ignore"):
-        for t in range(1, t_max):
-            prev = alpha[:, t - 1]
-            cur = prev + log_stay
-            cur[:, 1:] = np.logaddexp(cur[:, 1:], prev[:, :-1] + log_move)
-            alpha[:, t] = cur + log_emit[:, t]
-    return alpha
-
-
 def baum_welch_gaussian(features: np.ndarray, num_states: int, weights, *,
                         iterations: int = DEFAULT_ITERATIONS,
                         var_floor: float = DEFAULT_VAR_FLOOR) -> GaussianHMM:
@@ -105,7 +93,7 @@ def baum_welch_gaussian(features: np.ndarray, num_states: int, weights, *,
         with np.errstate(divide="ignore"):
             log_stay, log_move = np.log(stay), np.log1p(-stay[:-1])
         emit = log_emissions(x, mean[None], var[None], w)[:, 0]          # (S, T, N)
-        alpha = _log_forward_all(emit, log_stay, log_move)
+        alpha = forward_log_lattice(emit, log_stay, log_move)
         beta = _log_backward(emit, log_stay, log_move)
         total = alpha[:, -1, -1]
         ok = np.isfinite(total)

@@ -8,6 +8,7 @@
   the hand wanders on a smooth random path for 40-80 frames, then rest,
   with jitter and tremor): what the camera front end sees when a person
   moves a hand without making a gesture.
+* :func:`as_centroid_tracks`: pen paths turned into such tracks.
 
 All are labelled ``"none"`` and seeded.
 """
@@ -17,7 +18,7 @@ import numpy as np
 
 from recognition.datasets import TrajectorySet
 
-__all__ = ["NONE_LABEL", "random_walks", "scribbles", "wandering_hands"]
+__all__ = ["NONE_LABEL", "random_walks", "scribbles", "wandering_hands", "as_centroid_tracks"]
 
 NONE_LABEL = "none"
 
@@ -29,15 +30,19 @@ def _check(count, seed):
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
 
 
-def random_walks(count: int, seed: int = 0, points: tuple[int, int] = (30, 120)) -> TrajectorySet:
-    """``count`` random walks of ``points`` (uniform in the range) Gaussian steps."""
+def _pen_paths(count: int, seed: int, points: tuple[int, int], draw) -> TrajectorySet:
+    """``count`` paths of ``points`` (uniform in the range) points, ``draw(rng, n)``
+    each, labelled "none"."""
     _check(count, seed)
     rng = np.random.default_rng(seed)
-    paths = []
-    for _ in range(count):
-        n = int(rng.integers(points[0], points[1] + 1))
-        paths.append(200.0 + np.cumsum(rng.normal(0.0, 5.0, size=(n, 2)), axis=0))
+    paths = [draw(rng, int(rng.integers(points[0], points[1] + 1))) for _ in range(count)]
     return TrajectorySet.from_list(paths, [NONE_LABEL] * count)
+
+
+def random_walks(count: int, seed: int = 0, points: tuple[int, int] = (30, 120)) -> TrajectorySet:
+    """``count`` random walks of ``points`` (uniform in the range) Gaussian steps."""
+    return _pen_paths(count, seed, points,
+                      lambda rng, n: 200.0 + np.cumsum(rng.normal(0.0, 5.0, size=(n, 2)), axis=0))
 
 
 def _smooth_curve(rng: np.random.Generator, n: int, amplitude: float) -> np.ndarray:
@@ -54,13 +59,25 @@ def _smooth_curve(rng: np.random.Generator, n: int, amplitude: float) -> np.ndar
 
 def scribbles(count: int, seed: int = 0, points: tuple[int, int] = (30, 120)) -> TrajectorySet:
     """``count`` smooth random curves, 100 px across, with a little pen noise."""
-    _check(count, seed)
-    rng = np.random.default_rng(seed)
-    paths = []
-    for _ in range(count):
-        n = int(rng.integers(points[0], points[1] + 1))
-        paths.append(200.0 + _smooth_curve(rng, n, 100.0) + rng.normal(0.0, 0.5, size=(n, 2)))
-    return TrajectorySet.from_list(paths, [NONE_LABEL] * count)
+    return _pen_paths(count, seed, points,
+                      lambda rng, n: 200.0 + _smooth_curve(rng, n, 100.0)
+                      + rng.normal(0.0, 0.5, size=(n, 2)))
+
+
+def as_centroid_tracks(data: TrajectorySet, origin: tuple[float, float] = (150.0, 120.0),
+                       rest_frames: int = 20, width: int = 640,
+                       height: int = 480) -> TrajectorySet:
+    """Pen paths as per-frame hand centroid tracks for the camera front end:
+    moved so that their top-left corner is at ``origin``, with
+    ``rest_frames`` still frames before and after (the spotting needs them),
+    clipped to the frame."""
+    tracks = []
+    for path in data.trajectories():
+        path = path - path.min(axis=0) + origin
+        track = np.concatenate([np.repeat(path[:1], rest_frames, axis=0), path,
+                                np.repeat(path[-1:], rest_frames, axis=0)])
+        tracks.append(np.clip(track, 0, (width - 1, height - 1)))
+    return TrajectorySet.from_list(tracks, data.label)
 
 
 def wandering_hands(count: int, seed: int = 0, width: int = 640,

@@ -34,11 +34,12 @@ from recognition.gaussian_train import (DEFAULT_RESAMPLE, DEFAULT_STATES, DEFAUL
                                         DEFAULT_WEIGHTS, train_gaussian_models)
 from recognition.hmm_train import (DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER, DEFAULT_TOL,
                                    train_models)
+from sw_hps.hmm import EMISSIONS
+from sw_hps.stroke import RESAMPLE_RANGE as STROKE_RESAMPLE_RANGE
 
 __all__ = ["EMISSIONS", "DEFAULT_EMISSION", "DEFAULT_REJECT_QUANTILE", "Recogniser",
            "fold_of_groups"]
 
-EMISSIONS = ("discrete", "gaussian")
 #: The best emission model (README table): what ``stereogest train`` uses.
 DEFAULT_EMISSION = "gaussian"
 #: Quantile of held-out in-vocabulary per-step scores below which a gesture is refused...
@@ -111,6 +112,10 @@ class Recogniser:
         lo, hi = RESAMPLE_RANGE
         if self.resample is not None and not lo <= self.resample <= hi:
             raise ValueError(f"resample must be in {lo}..{hi}, got {self.resample}")
+        if self.emission == "gaussian" and self.resample is not None \
+                and self.resample < STROKE_RESAMPLE_RANGE[0]:
+            raise ValueError(f"resample must be >= {STROKE_RESAMPLE_RANGE[0]} for gaussian "
+                             f"models, got {self.resample}")
         if not 0.0 <= self.reject_quantile < 0.5:
             raise ValueError(f"reject_quantile must be in [0, 0.5), got {self.reject_quantile}")
         if not (self.reject_margin >= 0 and np.isfinite(self.reject_margin)):
@@ -128,8 +133,7 @@ class Recogniser:
     @property
     def feature_points(self) -> int:
         """Points the Gaussian features resample to."""
-        return self.resample if self.resample is not None and self.resample >= 3 \
-            else DEFAULT_RESAMPLE
+        return DEFAULT_RESAMPLE if self.resample is None else self.resample
 
     def describe(self) -> dict:
         return dict(asdict(self), states=self.num_states)

@@ -21,14 +21,15 @@ the last state after the last vector.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .hmm import MODEL_FORMAT, check_thresholds, decide
 from .stroke import FEATURE_NAMES, RESAMPLE_RANGE, stroke_features
 
-__all__ = ["GaussianHMM", "GaussianGestureModels", "log_emissions", "forward_log_likelihood"]
+__all__ = ["GaussianHMM", "GaussianGestureModels", "log_emissions", "forward_log_lattice",
+           "forward_log_likelihood"]
 
 _LOG_2PI = float(np.log(2 * np.pi))
 
@@ -104,23 +105,30 @@ def log_emissions(features: np.ndarray, mean: np.ndarray, var: np.ndarray,
     return np.moveaxis(out, -2, -3)
 
 
-def forward_log_likelihood(log_emit: np.ndarray, log_stay: np.ndarray,
-                           log_move: np.ndarray) -> np.ndarray:
-    """Log forward algorithm of left-right chains that start in state 0 and
-    must end in their last state.
+def forward_log_lattice(log_emit: np.ndarray, log_stay: np.ndarray,
+                        log_move: np.ndarray) -> np.ndarray:
+    """Log forward variables of left-right chains that start in state 0.
 
     ``log_emit`` (..., T, N), ``log_stay`` (..., N) and ``log_move`` (..., N-1)
-    (log of ``1 - stay``) give (...) log-likelihoods (``-inf`` if impossible;
-    unused padding states need ``log_stay = log_move = -inf``).
+    (log of ``1 - stay``) give ``log alpha_t(j)`` (..., T, N).
     """
-    alpha = np.full(log_emit.shape[:-2] + log_emit.shape[-1:], -np.inf)
-    alpha[..., 0] = log_emit[..., 0, 0]
+    alpha = np.full(log_emit.shape, -np.inf)
+    alpha[..., 0, 0] = log_emit[..., 0, 0]
     with np.errstate(invalid="ignore"):
         for t in range(1, log_emit.shape[-2]):
-            stay = alpha + log_stay
-            stay[..., 1:] = np.logaddexp(stay[..., 1:], alpha[..., :-1] + log_move)
-            alpha = stay + log_emit[..., t, :]
-    return alpha[..., -1]
+            prev = alpha[..., t - 1, :]
+            cur = prev + log_stay
+            cur[..., 1:] = np.logaddexp(cur[..., 1:], prev[..., :-1] + log_move)
+            alpha[..., t, :] = cur + log_emit[..., t, :]
+    return alpha
+
+
+def forward_log_likelihood(log_emit: np.ndarray, log_stay: np.ndarray,
+                           log_move: np.ndarray) -> np.ndarray:
+    """Log-likelihoods (...) of gestures that must end in the last state:
+    the last state's entry of :func:`forward_log_lattice` after the last
+    vector (``-inf`` if impossible)."""
+    return forward_log_lattice(log_emit, log_stay, log_move)[..., -1, -1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,8 +240,7 @@ class GaussianGestureModels:
         return decide(scores, self.steps, self.thresholds, self.class_names)
 
     def with_thresholds(self, thresholds) -> "GaussianGestureModels":
-        return GaussianGestureModels(self.class_names, self.components, self.resample,
-                                     self.weights, thresholds, dict(self.meta))
+        return replace(self, thresholds=thresholds, meta=dict(self.meta))
 
     def to_dict(self) -> dict:
         return {"format": MODEL_FORMAT, "version": 2, "emission": self.emission,

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -248,7 +248,7 @@ class GestureModels:
         return decide(scores, steps, self.thresholds, self.class_names)
 
     def with_thresholds(self, thresholds) -> "GestureModels":
-        return GestureModels(self.class_names, self.models, dict(self.meta), thresholds)
+        return replace(self, thresholds=thresholds, meta=dict(self.meta))
 
     def to_dict(self) -> dict:
         return {"format": MODEL_FORMAT, "version": MODEL_VERSION, "emission": self.emission,

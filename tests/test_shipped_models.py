@@ -9,7 +9,8 @@ import pytest
 import sw_hps
 from recognition.corpus import synthetic_corpus
 from recognition.features import feature_sets, sequences
-from recognition.non_gestures import random_walks, scribbles, wandering_hands
+from recognition.non_gestures import (as_centroid_tracks, random_walks, scribbles,
+                                      wandering_hands)
 from recognition.recogniser import Recogniser
 from stereogest.commands.demo import DEFAULT_MODEL
 from sw_hps.hmm import load_models
@@ -49,13 +50,7 @@ def test_default_model_recognises_other_people_through_the_camera_front_end(
 def test_default_model_refuses_non_gestures(default_models, make, camera):
     data = make(40, seed=11)
     if not camera:
-        # Pen paths become centroid tracks in the frame, with rests for the spotting.
-        tracks = []
-        for t in data.trajectories():
-            t = t - t.min(axis=0) + (150.0, 120.0)
-            tracks.append(np.concatenate([np.repeat(t[:1], 20, axis=0), t,
-                                          np.repeat(t[-1:], 20, axis=0)]))
-        data = type(data).from_list(tracks, data.label)
+        data = as_centroid_tracks(data)
     samples = feature_sets(data, default_models.resample, camera=True)
     decided, _ = Recogniser().decisions(default_models, samples)
     assert (decided < 0).mean() >= 0.95

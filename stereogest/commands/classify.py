@@ -61,7 +61,7 @@ def run(args) -> int:
     import numpy as np
 
     from recognition.datasets import load_trajectories
-    from recognition.evaluation import confusion_png
+    from recognition.evaluation import confusion_matrix, confusion_png
     from recognition.features import feature_sets, sequences
     from recognition.recogniser import Recogniser
     from sw_hps.hmm import load_models
@@ -81,13 +81,14 @@ def run(args) -> int:
     labels = data.label.tolist()
     known = np.array([label in names for label in labels], dtype=bool)
     truth = np.array([names.index(label) if label in names else -1 for label in labels])
-    confusion = np.zeros((c, c + 1), dtype=np.int64)
-    np.add.at(confusion, (truth[known], np.where(decided[known] >= 0, decided[known], c)), 1)
+    confusion = confusion_matrix(truth[known], decided[known], c)
     inside = int(known.sum())
     outside = int((~known).sum())
     correct = int((decided[known] == truth[known]).sum())
     refused_in = int((decided[known] < 0).sum())
     refused_out = int((decided[~known] < 0).sum())
+    if models.emission == "gaussian" and resample is not None:
+        resample = models.resample          # the features use the model's own resampling
     report = {"model": str(args.model), "data": str(args.data), "emission": models.emission,
               "resample": resample, "samples": len(samples), "in_vocabulary": inside,
               "correct": correct, "accuracy": correct / inside if inside else None,
