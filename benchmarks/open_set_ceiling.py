@@ -18,15 +18,18 @@ Run: ``python benchmarks/open_set_ceiling.py`` (about 2 CPU-minutes).
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
 from recognition.datasets import load_trajectories
 from recognition.recogniser import Recogniser, fold_of_groups
 
-from recognition_accuracy import DOLLAR
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from recognition_accuracy import DOLLAR  # noqa: E402  (benchmarks/ is not a package)
 
 #: Near-twin pairs of the $1 set: (accepted class, unseen class).
 PAIRS = (("check", "v"), ("v", "check"), ("left_curly_brace", "left_sq_bracket"),

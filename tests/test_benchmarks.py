@@ -42,3 +42,29 @@ def test_bench_hmm_quick_prints_json(capsys):
     assert [r["setting"] for r in result["table"]] == \
         ["discrete (thesis)"] + [f"gaussian {n}" for n in bench.GAUSSIAN_SETTINGS]
     assert "| setting | classes x components x states |" in out
+
+
+def test_open_set_ceiling_on_a_small_subset():
+    import numpy as np
+    from dataclasses import replace
+
+    from recognition.datasets import load_trajectories
+    from recognition.recogniser import Recogniser
+
+    bench = load_script("open_set_ceiling")
+    data = load_trajectories(bench.DOLLAR)
+    # 6 gestures per class and subject of 3 subjects: seconds, not minutes.
+    keep = np.zeros(len(data), dtype=bool)
+    for name in data.class_names:
+        for subject in (2, 3, 4):
+            keep[np.flatnonzero((data.label == name) & (data.subject == subject))[:6]] = True
+    small = data.subset(keep)
+    recogniser = replace(Recogniser(resample=64, states=8), reject=False)
+    refused_in, refused_out, count, accepted_as = bench.oracle_open_set(recogniser, small, 0.1)
+    assert count == keep.sum() and 0 < refused_in <= 0.2 and 0 < refused_out <= 1
+    assert sum(accepted_as.values()) == round((1 - refused_out) * count)
+    pairs = bench.pair_tests(recogniser, small, 0.1)
+    assert [(a, u) for a, u, _ in pairs] == list(bench.PAIRS)
+    assert all(0 <= r <= 1 for *_, r in pairs)
+    with pytest.raises(SystemExit):
+        bench.main(["--refuse-in", "0.7"])
