@@ -15,8 +15,12 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/stereogest demo --output demo-out
 
+# One pytest worker per core (pytest-xdist); Verilated builds are shared
+# through a lock per build (hdl/verilator_sim.py).
+JOBS ?= auto
+
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(JOBS)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_model.py

@@ -19,7 +19,7 @@ import numpy as np
 
 from sim.model.pipeline import PipelineParams
 
-from .verilator_sim import BUILD, ROOT, sources_digest, verilate
+from .verilator_sim import ROOT, build_root, sources_digest, verilate
 
 __all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
            "run_clip_hardware", "RECORD_FIELDS"]
@@ -116,7 +116,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
                 cflags=cflags, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = sources_digest(["hdl"], [HARNESS])
-    folder = BUILD / f"pipeline-{key}-{digest}"
+    folder = build_root() / f"pipeline-{key}-{digest}"
     exe = folder / "obj_dir" / "pipeline_harness"
     if exe.exists():
         return exe

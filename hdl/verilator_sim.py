@@ -3,29 +3,52 @@
 with the C++ harness of ``sim/verilator/stereo_harness.cpp``: whole frames, no
 Python per cycle.
 
-Builds are cached under ``build/verilator/<key>/``; the key hashes the
-matcher's parameters and the sources of ``hdl/`` and the harness, so an edit
-rebuilds and an unchanged design reuses the binary.
+Builds are cached under ``<build>/verilator/<key>/`` (:func:`build_root`:
+``$STEREOGEST_BUILD_DIR`` or ``build/`` of the current directory); the key
+hashes the matcher's parameters and the sources of ``hdl/`` and the harness,
+so an edit rebuilds and an unchanged design reuses the binary. A lock per
+build lets parallel test workers share the cache: one builds, the others wait.
 """
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
 import shutil
 import subprocess
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 __all__ = ["verilator_env", "verilate", "emit_verilog", "build_matcher", "run_matcher",
-           "HARNESS"]
+           "build_root", "build_lock", "HARNESS"]
 
 ROOT = Path(__file__).resolve().parent.parent
 HARNESS = ROOT / "sim" / "verilator" / "stereo_harness.cpp"
-BUILD = ROOT / "build" / "verilator"
 TOP = "stereo_matcher"
+
+
+def build_root(kind: str = "verilator") -> Path:
+    """Cache folder of one kind of build: ``$STEREOGEST_BUILD_DIR/<kind>``, or
+    ``build/<kind>`` under the current directory."""
+    base = os.environ.get("STEREOGEST_BUILD_DIR")
+    return (Path(base) if base else Path.cwd() / "build") / kind
+
+
+@contextmanager
+def build_lock(folder: Path):
+    """Hold an exclusive lock on ``folder`` (a sibling ``.lock`` file) while
+    checking for and making a cached build."""
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with open(folder.parent / f"{folder.name}.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def verilator_env() -> dict:
@@ -92,10 +115,20 @@ def verilate(folder: Path, verilog_name: str, verilog_text: str, spec: dict, top
              exe_name: str, harness: Path, *, jobs: int | None = None, cflags: str = "-O1",
              threads: int = 1, log=None) -> Path:
     """Verilate ``verilog_text`` with the C++ ``harness`` into ``folder`` (built in a
-    temporary sibling and renamed into place, so a failed build leaves nothing);
-    returns the executable."""
-    BUILD.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix="build-", dir=BUILD))
+    temporary sibling and renamed into place, so a failed build leaves nothing;
+    reused if another process built it meanwhile); returns the executable."""
+    with build_lock(folder):
+        exe = folder / "obj_dir" / exe_name
+        if exe.exists():
+            return exe
+        _verilate(folder, verilog_name, verilog_text, spec, top, exe_name, harness,
+                  jobs=jobs, cflags=cflags, threads=threads, log=log)
+    return exe
+
+
+def _verilate(folder, verilog_name, verilog_text, spec, top, exe_name, harness, *, jobs,
+              cflags, threads, log) -> None:
+    tmp = Path(tempfile.mkdtemp(prefix="build-", dir=folder.parent))
     try:
         (tmp / verilog_name).write_text(verilog_text)
         (tmp / "params.json").write_text(json.dumps(spec, indent=1) + "\n")
@@ -120,7 +153,6 @@ def verilate(folder: Path, verilog_name: str, verilog_text: str, spec: dict, top
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-    return folder / "obj_dir" / exe_name
 
 
 def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
@@ -130,7 +162,7 @@ def build_matcher(jobs: int | None = None, log=None, **params) -> Path:
     dut = StereoMatcher(**params)
     spec = _params(dut)
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    folder = BUILD / f"{key}-{_source_digest()}"
+    folder = build_root() / f"{key}-{_source_digest()}"
     exe = folder / "obj_dir" / "stereo_harness"
     if exe.exists():
         return exe

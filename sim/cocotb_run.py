@@ -8,12 +8,8 @@ from __future__ import annotations
 
 import hashlib
 import os
-from pathlib import Path
 
 __all__ = ["run_cocotb"]
-
-ROOT = Path(__file__).resolve().parent.parent
-BUILD = ROOT / "build" / "cocotb"
 
 
 def run_cocotb(verilog: str, toplevel: str, test_module: str, test_dir, *,
@@ -36,15 +32,22 @@ def run_cocotb(verilog: str, toplevel: str, test_module: str, test_dir, *,
     testcase : str or list of str, optional
         Only these tests.
     """
-    from cocotb_tools.runner import get_results, get_runner
-
-    from hdl.verilator_sim import verilator_env
+    from hdl.verilator_sim import build_lock, build_root, verilator_env
 
     env = verilator_env()
     os.environ["VERILATOR_ROOT"] = env["VERILATOR_ROOT"]
     os.environ["PATH"] = env["PATH"]
     key = hashlib.sha256(verilog.encode()).hexdigest()[:16]
-    build_dir = BUILD / f"{toplevel}-{key}"
+    build_dir = build_root("cocotb") / f"{toplevel}-{key}"
+    with build_lock(build_dir):   # parallel workers: one design, one build at a time
+        _build_and_test(verilog, toplevel, test_module, test_dir, build_dir, extra_env,
+                        testcase)
+
+
+def _build_and_test(verilog, toplevel, test_module, test_dir, build_dir, extra_env,
+                    testcase) -> None:
+    from cocotb_tools.runner import get_results, get_runner
+
     build_dir.mkdir(parents=True, exist_ok=True)
     source = build_dir / f"{toplevel}.v"
     if not source.exists() or source.read_text() != verilog:

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from hdl.verilator_pipeline import CFLAGS, clip_timing
-from hdl.verilator_sim import BUILD, ROOT, sources_digest, verilate
+from hdl.verilator_sim import ROOT, build_root, sources_digest, verilate
 from sim.model.pipeline import PipelineParams
 
 __all__ = ["SystemClocks", "build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
@@ -122,7 +122,7 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
                 config_ps=clocks.config_ps, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    folder = BUILD / f"system-{key}-{sources_digest(['hdl', 'soc'], [HARNESS])}"
+    folder = build_root() / f"system-{key}-{sources_digest(['hdl', 'soc'], [HARNESS])}"
     exe = folder / "obj_dir" / "system_harness"
     if exe.exists():
         return exe
