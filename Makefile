@@ -16,7 +16,7 @@ demo: $(STAMP)
 	$(BIN)/stereogest demo --output demo-out
 
 # One pytest worker per core (pytest-xdist); Verilated builds are shared
-# through a lock per build (hdl/verilator_sim.py).
+# through a lock per build (verif/verilator.py).
 JOBS ?= auto
 
 test: $(STAMP)

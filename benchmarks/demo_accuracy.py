@@ -9,9 +9,13 @@ Every clip also checks the hardware against the golden model: the FIFO words
 the application pops, the UART bytes against its telegram and the VGA frame.
 
 Run: ``python benchmarks/demo_accuracy.py [--width 320 --height 240]
-[--per-gesture 5] [--first-seed 2001] [--jobs 2] [--json FILE] [--backend model]``
+[--per-gesture 5] [--first-seed 2001] [--gesture NAME ...] [--jobs 2]
+[--scheduler ADDRESS] [--json FILE] [--backend model]``
 (``--backend model``: the golden model, bit-exact with the hardware, instead of
-Verilator). Prints a
+Verilator). The clips run on ``--jobs`` local processes or, with
+``--scheduler tcp://host:8786``, on the workers of a running Dask cluster; each
+worker builds (or reuses, from its build cache) the Verilated system itself, so
+remote workers need the project installed, not a shared disk. Prints a
 Markdown table, the accuracy and the wall time, and a final JSON line.
 """
 from __future__ import annotations
@@ -34,15 +38,17 @@ def _models(path):
 
 
 def one_clip(job):
-    gesture, seed, width, height, exe, model = job
-    if exe is None:
+    gesture, seed, width, height, backend, model = job
+    if backend == "model":
         return model_clip(gesture, seed, width, height, model)
     from sim.model.pipeline import PipelineParams
     from sim.render import render_clip
-    from soc.end_to_end import clip_end_to_end
+    from verif.end_to_end import clip_end_to_end
+    from verif.system import build_system
 
     models = _models(model)
     params = PipelineParams.for_frame(width)
+    exe = build_system(width, height, params)     # cached: built once per machine
     start = time.perf_counter()
     clip = render_clip(gesture, seed, width, height)
     _, _, extra, result = clip_end_to_end(clip, models, params, threads=1, exe=exe)
@@ -79,58 +85,91 @@ def model_clip(gesture, seed, width, height, model=None):
             "cycles": 0, "seconds": round(time.perf_counter() - start, 1)}
 
 
+def _run(jobs, processes, scheduler):
+    """Rows of :func:`one_clip` as they finish: local processes, or the workers
+    of the Dask cluster at ``scheduler``."""
+    if scheduler is None:
+        with multiprocessing.get_context("fork").Pool(processes) as pool:
+            yield from pool.imap_unordered(one_clip, jobs)
+        return
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise SystemExit("demo_accuracy: --scheduler needs the 'distributed' package") from None
+    try:
+        client = Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SystemExit(f"demo_accuracy: --scheduler {scheduler!r}: cannot connect "
+                         f"({exc})") from None
+    try:
+        futures = client.map(one_clip, jobs, pure=False)
+        for future in as_completed(futures):
+            yield future.result()
+    finally:
+        client.close()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=240)
     ap.add_argument("--per-gesture", type=int, default=5)
     ap.add_argument("--first-seed", type=int, default=2001)
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--gesture", action="append", choices=GESTURES,
+                    help="only these gestures (repeatable; default all seven)")
+    ap.add_argument("--jobs", type=int, default=2, help="local processes (default 2)")
+    ap.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                    help="run the clips on a Dask cluster (tcp://host:8786) instead")
     ap.add_argument("--json", metavar="FILE", default=None)
     ap.add_argument("--model", metavar="MODEL.json", default=None,
                     help="board model file (default: the demo's, sw_hps/models/gestures7.json)")
     ap.add_argument("--backend", choices=("verilator", "model"), default="verilator",
                     help="model: the golden model only (minutes instead of hours)")
     args = ap.parse_args(argv)
+    if args.jobs < 1 or args.per_gesture < 1:
+        ap.error(f"--jobs and --per-gesture must be >= 1, got {args.jobs} and "
+                 f"{args.per_gesture}")
 
     from sim.model.pipeline import PipelineParams
-    from soc.system_sim import build_system
+    from verif.system import build_system
 
     start = time.perf_counter()
-    exe = None
-    if args.backend == "verilator":
+    hardware = args.backend == "verilator"
+    if hardware and args.scheduler is None:
         print(f"building the Verilated system at {args.width}x{args.height} ...", flush=True)
-        exe = build_system(args.width, args.height, PipelineParams.for_frame(args.width))
-    jobs = [(g, args.first_seed + k, args.width, args.height, exe, args.model)
-            for k in range(args.per_gesture) for g in GESTURES]
+        build_system(args.width, args.height, PipelineParams.for_frame(args.width))
+    gestures = args.gesture or GESTURES
+    jobs = [(g, args.first_seed + k, args.width, args.height, args.backend, args.model)
+            for k in range(args.per_gesture) for g in gestures]
     rows = []
     print("| gesture | seed | frames | recognised | FIFO = model | VGA = model | UART = "
           "telegram | s |\n|---|---|---|---|---|---|---|---|", flush=True)
-    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
-        for row in pool.imap_unordered(one_clip, jobs):
-            rows.append(row)
-            vga = None if row["vga_mismatches"] is None else row["vga_mismatches"] == 0
-            checks = [row["fifo_matches_model"], vga, row["uart_matches_telegram"]]
-            print(f"| {row['gesture']} | {row['seed']} | {row['frames']}+{row['held']} | "
-                  f"{row['recognised']} | "
-                  + " | ".join("-" if c is None else str(c) for c in checks)
-                  + f" | {row['seconds']} |", flush=True)
+    for row in _run(jobs, args.jobs, args.scheduler):
+        rows.append(row)
+        vga = None if row["vga_mismatches"] is None else row["vga_mismatches"] == 0
+        checks = [row["fifo_matches_model"], vga, row["uart_matches_telegram"]]
+        print(f"| {row['gesture']} | {row['seed']} | {row['frames']}+{row['held']} | "
+              f"{row['recognised']} | "
+              + " | ".join("-" if c is None else str(c) for c in checks)
+              + f" | {row['seconds']} |", flush=True)
     wall = time.perf_counter() - start
     correct = sum(r["recognised"] == r["gesture"] and r["all_recognised"] == [r["gesture"]]
                   for r in rows)
     exact = None
     check = "golden model only, no hardware check"
-    if exe is not None:
+    if hardware:
         exact = all(r["fifo_matches_model"] and r["vga_mismatches"] == 0
                     and r["uart_matches_telegram"] for r in rows)
         check = f"hardware = golden model on every clip: {exact}"
     print(f"\nrecognised {correct} of {len(rows)} clips ({100 * correct / len(rows):.1f} %), "
-          f"{check}; wall time {wall / 60:.1f} min with {args.jobs} jobs")
+          f"{check}; wall time {wall / 60:.1f} min with "
+          + (f"the cluster at {args.scheduler}" if args.scheduler else f"{args.jobs} jobs"))
     summary = {"backend": args.backend, "width": args.width, "height": args.height,
                "clips": len(rows),
                "correct": correct, "accuracy": correct / len(rows),
                "hardware_exact": exact,
                "wall_seconds": round(wall, 1), "jobs": args.jobs,
+               "scheduler": args.scheduler,
                "rows": sorted(rows, key=lambda r: (GESTURES.index(r["gesture"]), r["seed"]))}
     if args.json:
         Path(args.json).write_text(json.dumps(summary, indent=1) + "\n")

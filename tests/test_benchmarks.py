@@ -68,3 +68,25 @@ def test_open_set_ceiling_on_a_small_subset():
     assert all(0 <= r <= 1 for *_, r in pairs)
     with pytest.raises(SystemExit):
         bench.main(["--refuse-in", "0.7"])
+
+
+def test_demo_accuracy_runs_its_clips_on_a_dask_cluster(capsys):
+    distributed = pytest.importorskip("distributed")
+    bench = load_script("demo_accuracy")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        code = bench.main(["--backend", "model", "--width", "160", "--height", "120",
+                           "--per-gesture", "2", "--gesture", "stop",
+                           "--scheduler", cluster.scheduler_address])
+    out = capsys.readouterr().out
+    summary = json.loads(out.strip().splitlines()[-1])
+    assert summary["clips"] == 2 and summary["scheduler"] == cluster.scheduler_address
+    assert code == (0 if summary["correct"] == 2 else 1)
+    assert out.count("| stop | 200") == 2      # seeds 2001 and 2002, one row each
+
+
+def test_demo_accuracy_refuses_an_unreachable_scheduler():
+    bench = load_script("demo_accuracy")
+    with pytest.raises(SystemExit, match="cannot connect"):
+        bench.main(["--backend", "model", "--per-gesture", "1", "--gesture", "stop",
+                    "--scheduler", "tcp://127.0.0.1:9"])

@@ -13,7 +13,7 @@ from hdl.centroid import Centroid
 from hdl.divider import UnsignedDivider
 from hdl.gesture_spotting import GestureSpotting
 from hdl.moving_average import MovingAverage
-from hdl.sim_support import field, pack, run_stream
+from verif.streams import field, pack, run_stream
 from sim.model.centroid import centroid, moment_widths
 from sim.model.features import gesture_spotting, moving_average
 

@@ -12,7 +12,7 @@ from hdl.delay_line import MEMORY_MIN_BEATS, BeatDelay
 from hdl.morphology import BinaryMorphology
 from hdl.opening import Opening
 from hdl.segmentation import HandSegmentation
-from hdl.sim_support import field, frame_beats, gap_pattern, pack, run_stream, split_frames
+from verif.streams import field, frame_beats, gap_pattern, pack, run_stream, split_frames
 from hdl.ycbcr422 import YCbCr422To444
 from sim.model.morphology import dilate, erode, opening
 from sim.model.segmentation import disparity_band, hand_mask, skin_mask

@@ -14,7 +14,7 @@ from hdl.median3x3 import Median3x3
 from hdl.row_buffer import RowBuffer
 from hdl.selectors import DisparitySelectors
 from hdl.shd import SumOfHammingDistances
-from hdl.sim_support import field, frame_beats, run_stream, split_frames
+from verif.streams import field, frame_beats, run_stream, split_frames
 from hdl.window import WindowGenerator
 from sim.images import read_grey
 from sim.model.census import census_bits, sparse_census

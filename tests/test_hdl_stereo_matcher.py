@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdl.sim_support import field, pack, run_stream
+from verif.streams import field, pack, run_stream
 from hdl.stereo_matcher import StereoMatcher
 from sim.images import read_grey
 from sim.model.stereo import stereo_match
@@ -140,7 +140,7 @@ def test_external_flush_mode_is_a_plain_pipeline_stage():
     """With ``external_flush`` the frame source supplies the flush beats (here
     with random payloads, as an upstream window stage would leave them) and the
     output carries ``first`` / ``real`` on every beat."""
-    from hdl.sim_support import frame_beats, split_frames
+    from verif.streams import frame_beats, split_frames
     w, h = 24, 16
     pairs = [_pair(("tsukuba", 140, 120), h, w, 0), _pair("random", h, w, 4)]
     dut = StereoMatcher(w, h, 5, 5, 8, external_flush=True)

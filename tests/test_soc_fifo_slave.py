@@ -12,7 +12,7 @@ import pytest
 from amaranth.back import verilog
 from amaranth.sim import Simulator
 
-from sim.cocotb_run import run_cocotb
+from verif.cocotb_run import run_cocotb
 from soc.fifo_slave import FifoSlave
 from sw_hps.fifo import (CONTROL, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO, DATA_MASK, DATO_X,
                          DATO_Y, FIFO_DEPTH, LONGITUD_X, LONGITUD_Y)

@@ -635,7 +635,7 @@ def soc_system_stub(core_ports) -> str:
 
 
 def verilator(args, tmp_path):
-    from hdl.verilator_sim import verilator_env
+    from verif.verilator import verilator_env
     result = subprocess.run(["verilator", *LINT_FLAGS, *args], cwd=tmp_path,
                             env=verilator_env(), capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stderr[-6000:]

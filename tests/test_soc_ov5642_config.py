@@ -21,7 +21,7 @@ import pytest
 from amaranth.back import verilog
 from amaranth.sim import Simulator
 
-from sim.cocotb_run import run_cocotb
+from verif.cocotb_run import run_cocotb
 from soc.ov5642_config import (DEFAULT_TABLE, Ov5642Config, i2c_timing, load_ov5642_table)
 
 TB_DIR = Path(__file__).resolve().parent / "cocotb"

@@ -9,8 +9,8 @@ import pytest
 from sim.model.pipeline import run_clip
 from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, emit_core_verilog
 from sim.model.pipeline import video_picture
-from soc.end_to_end import frames_to_still, hold_still, run_end_to_end
-from soc.system_sim import SystemBus, VerilatorSystem, decode_uart
+from verif.end_to_end import frames_to_still, hold_still, run_end_to_end
+from verif.system import SystemBus, VerilatorSystem, decode_uart
 from sw_hps.robot import UART_STATUS, UART_STATUS_TX_READY, UartLink, telegram
 from tests.test_hdl_gesture_pipeline import SMALL, small_frames
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from amaranth.back import verilog
 
-from sim.cocotb_run import run_cocotb
+from verif.cocotb_run import run_cocotb
 from soc.uart import UartSlave
 
 TB_DIR = Path(__file__).resolve().parent / "cocotb"

@@ -18,6 +18,10 @@ import time
 from pathlib import Path
 
 NAME = "demo"
+#: Frames of rest before the gesture: enough for the moving average and the
+#: spotting window (K = 8) to settle; the renderer's own choice (about a
+#: second) adds some 20 frames, a minute of the Verilated system.
+DEFAULT_PRE_REST = 10
 #: The trained model shipped with the board application (``make model`` rebuilds it).
 DEFAULT_MODEL = "gestures7.json"
 HELP = "render a gesture clip and run it from camera pins to robot command (the main job)"
@@ -29,6 +33,9 @@ def add_arguments(p):
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
     p.add_argument("--seed", type=int, default=1, help="scene and timing seed")
+    p.add_argument("--pre-rest", type=int, default=DEFAULT_PRE_REST, metavar="FRAMES",
+                   help=f"frames of rest before the gesture, 0-10000 (default "
+                        f"{DEFAULT_PRE_REST}; -1: the renderer's seeded value)")
     p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
     p.add_argument("--height", type=int, default=480, help="frame height in pixels (even)")
     p.add_argument("-o", "--output", metavar="OUTDIR", default="demo-out",
@@ -65,6 +72,8 @@ def run(args) -> int:
     from sw_hps.hmm import load_models
 
     import sw_hps
+    if not -1 <= args.pre_rest <= 10000:
+        raise ValueError(f"--pre-rest must be in -1..10000, got {args.pre_rest}")
     say = _say(args.quiet)
     models = load_models(args.model or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
     params = PipelineParams.for_frame(args.width)
@@ -72,7 +81,8 @@ def run(args) -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    clip = render_clip(args.gesture, args.seed, args.width, args.height)
+    clip = render_clip(args.gesture, args.seed, args.width, args.height,
+                       n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
     clip_dir = save_clip(clip, out / "clip")
     print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
@@ -86,7 +96,7 @@ def run(args) -> int:
         trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
                                     progress=progress_printer(args.quiet), threads=args.threads)
     else:
-        from soc.end_to_end import clip_end_to_end
+        from verif.end_to_end import clip_end_to_end
         trajectory, kept, extra, result = clip_end_to_end(
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
             model_progress=progress_printer(args.quiet), progress=say)

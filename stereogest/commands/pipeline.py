@@ -105,7 +105,7 @@ def run(args) -> int:
     params = PipelineParams()
     start = time.perf_counter()
     if getattr(args, "backend", "model") == "verilator":
-        from hdl.verilator_pipeline import run_clip_hardware
+        from verif.pipeline import run_clip_hardware
         params.validate(clip.left.shape[2] // 2, clip.left.shape[1])
         if not args.quiet:
             print("  building / running the Verilated pipeline ...", file=sys.stderr, flush=True)

@@ -101,7 +101,7 @@ def _run_hardware(backend, left, right, args):
                   max_disparity=args.max_disparity, no_match_cost=args.no_match_cost,
                   disparity_median=not args.no_disparity_median)
     if backend == "verilator":
-        from hdl.verilator_sim import run_matcher
+        from verif.stereo import run_matcher
         try:
             maps, stats = run_matcher([(left, right)], threshold=args.lrcc_threshold, **params)
         except (RuntimeError, OSError) as exc:
@@ -112,7 +112,7 @@ def _run_hardware(backend, left, right, args):
     if w * h > AMARANTH_MAX_PIXELS:
         raise ValueError(f"--backend amaranth takes images of at most {AMARANTH_MAX_PIXELS} "
                          f"pixels, got {w}x{h}: use --backend verilator")
-    from hdl.sim_support import field, pack, run_stream
+    from verif.streams import field, pack, run_stream
     from hdl.stereo_matcher import StereoMatcher
     dut = StereoMatcher(w, h, **params)
     layout = dut.i_stream.payload.shape()

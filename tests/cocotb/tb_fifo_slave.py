@@ -1,7 +1,7 @@
 """cocotb testbench of :class:`soc.fifo_slave.FifoSlave` (thesis §7.4.1,
 Tables 12-13), driven through cocotbext-avalon's Avalon-MM master.
 
-Run by ``tests/test_soc_fifo_slave.py`` (``sim.cocotb_run.run_cocotb``); the
+Run by ``tests/test_soc_fifo_slave.py`` (``verif.cocotb_run.run_cocotb``); the
 environment gives the build's parameters: ``FIFO_DEPTH``, ``DATA_BITS`` and the
 seed of the randomized test ``TB_SEED``.
 

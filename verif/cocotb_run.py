@@ -32,7 +32,7 @@ def run_cocotb(verilog: str, toplevel: str, test_module: str, test_dir, *,
     testcase : str or list of str, optional
         Only these tests.
     """
-    from hdl.verilator_sim import build_lock, build_root, verilator_env
+    from .verilator import build_lock, build_root, verilator_env
 
     env = verilator_env()
     os.environ["VERILATOR_ROOT"] = env["VERILATOR_ROOT"]

@@ -1,6 +1,6 @@
 // Shared by the Verilator harnesses that replay camera pins (pipeline_harness.cpp,
 // system_harness.cpp): the pin files, the clock bookkeeping and the pin drive.
-// The build caches hash this header with the harnesses (hdl.verilator_sim.sources_digest).
+// The build caches hash this header with the harnesses (verif.verilator.sources_digest).
 #pragma once
 
 #include <cstdint>

