@@ -1,10 +1,12 @@
 // Shared by the Verilator harnesses that replay camera pins (pipeline_harness.cpp,
-// system_harness.cpp): the pin files, the clock bookkeeping and the pin drive.
+// system_harness.cpp): the pin files, the clocks (their command-line arguments,
+// edges and bookkeeping) and the pin drive.
 // The build caches hash this header with the harnesses (verif.verilator.sources_digest).
 #pragma once
 
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 // A camera-pin file: little-endian uint16 per PCLK cycle,
@@ -21,11 +23,51 @@ inline bool read_pins(const char* path, std::vector<uint16_t>& out) {
     return ok;
 }
 
+// Both cameras' pin files; false, with a message, if one cannot be read.
+inline bool read_cameras(char* const* paths, std::vector<uint16_t> pins[2]) {
+    for (int k = 0; k < 2; ++k) {
+        if (!read_pins(paths[k], pins[k])) {
+            std::fprintf(stderr, "cannot read %s\n", paths[k]);
+            return false;
+        }
+    }
+    return true;
+}
+
+// Both cameras are past their last sample.
+inline bool cameras_done(const long index[2], const std::vector<uint16_t> pins[2]) {
+    return index[0] >= static_cast<long>(pins[0].size()) &&
+           index[1] >= static_cast<long>(pins[1].size());
+}
+
 struct Clock {
     long half;   // half period, ps
     long next;   // time of the next toggle, ps
     bool level;
+
+    void toggle() {
+        level = !level;
+        next += half;
+    }
 };
+
+// The pipeline clock (high at time 0) and the two cameras' PCLK from the five
+// arguments SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
+// (verif.clocks.Clocks.camera_args).
+inline void camera_clocks(char* const* args, Clock& sync, Clock& left, Clock& right) {
+    const long sync_ps = std::atol(args[0]);
+    sync = {sync_ps / 2, sync_ps / 2, true};
+    left = {std::atol(args[1]) / 2, std::atol(args[2]), false};
+    right = {std::atol(args[3]) / 2, std::atol(args[4]), false};
+}
+
+// The time of the next edge of any of ``n`` clocks.
+inline long next_edge(const Clock* clocks, int n) {
+    long t = clocks[0].next;
+    for (int k = 1; k < n; ++k)
+        if (clocks[k].next < t) t = clocks[k].next;
+    return t;
+}
 
 // Put sample ``index`` of camera ``cam`` (0 left, 1 right) on the model's pins;
 // after the last sample the camera idles with VSYNC high.

@@ -35,18 +35,9 @@ int main(int argc, char** argv) {
         return 2;
     }
     std::vector<uint16_t> pins[2];
-    for (int k = 0; k < 2; ++k) {
-        if (!read_pins(argv[1 + k], pins[k])) {
-            std::fprintf(stderr, "cannot read %s\n", argv[1 + k]);
-            return 1;
-        }
-    }
-    const long sync_ps = std::atol(argv[4]);
-    Clock clocks[3] = {
-        {sync_ps / 2, sync_ps / 2, true},                       // pipeline, starts high
-        {std::atol(argv[5]) / 2, std::atol(argv[6]), false},    // left PCLK
-        {std::atol(argv[7]) / 2, std::atol(argv[8]), false},    // right PCLK
-    };
+    if (!read_cameras(argv + 1, pins)) return 1;
+    Clock clocks[3];  // pipeline, left PCLK, right PCLK
+    camera_clocks(argv + 4, clocks[0], clocks[1], clocks[2]);
     const long drain = std::atol(argv[9]);
     const long reset_at = std::atol(argv[10]);
     const long reset_cycles = std::atol(argv[11]);
@@ -73,9 +64,7 @@ int main(int argc, char** argv) {
     const long initial_reset = 8;
     auto start = std::chrono::steady_clock::now();
     while (done_at < 0 || cycles < done_at) {
-        long t = clocks[0].next;
-        for (int k = 1; k < 3; ++k)
-            if (clocks[k].next < t) t = clocks[k].next;
+        const long t = next_edge(clocks, 3);
         // the pipeline's outputs, sampled just before its rising edge
         if (clocks[0].next == t && !clocks[0].level) {
             if (top->out_valid) {
@@ -97,8 +86,7 @@ int main(int argc, char** argv) {
         for (int k = 0; k < 3; ++k) {
             Clock& c = clocks[k];
             if (c.next != t) continue;
-            c.level = !c.level;
-            c.next += c.half;
+            c.toggle();
             if (k > 0 && !c.level) {  // camera falling edge: the next byte on the pins
                 const int cam = k - 1;
                 drive_camera(top, cam, pins[cam], ++index[cam]);
@@ -108,9 +96,7 @@ int main(int argc, char** argv) {
         top->cam_left_clk = clocks[1].level;
         top->cam_right_clk = clocks[2].level;
         top->eval();
-        if (done_at < 0 && index[0] >= static_cast<long>(pins[0].size()) &&
-            index[1] >= static_cast<long>(pins[1].size()))
-            done_at = cycles + drain;
+        if (done_at < 0 && cameras_done(index, pins)) done_at = cycles + drain;
     }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

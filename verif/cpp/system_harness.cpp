@@ -48,23 +48,17 @@ struct System {
     std::vector<long> tx_edges;
     int tx_level = 1;
 
-    bool cameras_done() const {
-        return index[0] >= static_cast<long>(pins[0].size()) &&
-               index[1] >= static_cast<long>(pins[1].size());
-    }
+    bool cameras_done() const { return ::cameras_done(index, pins); }
 
     // Process the next clock event; returns true if it was a sync rising edge.
     bool step() {
-        long t = clocks[0].next;
-        for (int k = 1; k < NCLOCKS; ++k)
-            if (clocks[k].next < t) t = clocks[k].next;
+        const long t = next_edge(clocks, NCLOCKS);
         now = t;
         bool sync_rise = false;
         for (int k = 0; k < NCLOCKS; ++k) {
             Clock& c = clocks[k];
             if (c.next != t) continue;
-            c.level = !c.level;
-            c.next += c.half;
+            c.toggle();
             if (k == SYNC && c.level) {
                 sync_rise = true;
                 ++cycles;
@@ -143,8 +137,7 @@ struct System {
         int state = 0;  // 0: wait for vsync low, 1: wait for vsync high, 2: collect
         while (frame.size() < static_cast<size_t>(width) * height) {
             now = c.next;
-            c.level = !c.level;
-            c.next += c.half;
+            c.toggle();
             top->vga_clk = c.level;
             top->eval();
             if (c.level) {
@@ -174,16 +167,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     System s;
-    for (int k = 0; k < 2; ++k) {
-        if (!read_pins(argv[1 + k], s.pins[k])) {
-            std::fprintf(stderr, "cannot read %s\n", argv[1 + k]);
-            return 1;
-        }
-    }
-    const long sync_ps = std::atol(argv[3]);
-    s.clocks[SYNC] = {sync_ps / 2, sync_ps / 2, true};
-    s.clocks[LEFT] = {std::atol(argv[4]) / 2, std::atol(argv[5]), false};
-    s.clocks[RIGHT] = {std::atol(argv[6]) / 2, std::atol(argv[7]), false};
+    if (!read_cameras(argv + 1, s.pins)) return 1;
+    camera_clocks(argv + 3, s.clocks[SYNC], s.clocks[LEFT], s.clocks[RIGHT]);
     s.clocks[CONFIG] = {std::atol(argv[8]) / 2, std::atol(argv[8]) / 2, true};
     s.clocks[VGA] = {std::atol(argv[9]) / 2, std::atol(argv[9]) / 2, true};
     const int vga_width = std::atoi(argv[11]), vga_height = std::atoi(argv[12]);
