@@ -15,12 +15,12 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/stereogest demo --output demo-out
 
-# One pytest worker per core (pytest-xdist); Verilated builds are shared
-# through a lock per build (verif/verilator.py).
+# One pytest worker per core (pytest-xdist), a test file per worker (order:
+# tests/conftest.py); Verilated builds are shared through a lock per build.
 JOBS ?= auto
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n $(JOBS)
+	$(BIN)/python -m pytest -q -n $(JOBS) --dist loadfile
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_model.py

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The shared pieces of verif/: the build cache's place and lock, the one
 clock description and camera drive, the hardware progress line."""
 from __future__ import annotations
