@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import time
 import warnings
 from pathlib import Path
@@ -57,17 +56,12 @@ def timing():
     }
 
 
-def _child_cpu() -> float:
-    """CPU seconds (user + system) of the finished child processes so far."""
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def verilator_clip(frames: int, emissions):
     """A rendered clip through the Verilated pipeline, once per Verilog emission
     (verif.verilator.EMISSIONS), in one run: bit-exactness against the golden
     model, cycles per CPU-second of the harness process, and the ratio of each
     emission's speed to the first one's."""
+    from hdl.place_route import child_cpu_seconds
     from verif.pipeline import build_pipeline, run_clip_hardware
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
@@ -80,13 +74,13 @@ def verilator_clip(frames: int, emissions):
     model_seconds = time.perf_counter() - t
     out = {"frames": frames, "model_seconds_per_frame": round(model_seconds / frames, 3)}
     for emission in emissions:
-        t, cpu = time.perf_counter(), _child_cpu()
+        t, cpu = time.perf_counter(), child_cpu_seconds()
         build_pipeline(WIDTH, HEIGHT, params, emission=emission)
         build = {"build_seconds": round(time.perf_counter() - t, 1),
-                 "build_cpu_seconds": round(_child_cpu() - cpu, 1)}
-        cpu = _child_cpu()
+                 "build_cpu_seconds": round(child_cpu_seconds() - cpu, 1)}
+        cpu = child_cpu_seconds()
         hw, stats = run_clip_hardware(left, right, params, emission=emission)
-        run_cpu = _child_cpu() - cpu
+        run_cpu = child_cpu_seconds() - cpu
         same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
                    for f in ("centroid", "area", "smoothed", "flag", "symbol"))
         out[emission] = {

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from recognition.datasets import load_trajectories
+from recognition.evaluation import class_rotations
 from recognition.recogniser import Recogniser, fold_of_groups
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -41,11 +42,9 @@ def oracle_open_set(recogniser, data, refuse_in, held_classes=4, folds=3, seed=0
     labels = np.asarray(data.label)
     fold = fold_of_groups(labels, data.subject, folds)
     samples = recogniser.samples(data)
-    order = np.random.default_rng(seed).permutation(len(names))
     refused_in = total_in = refused_out = total_out = 0
     accepted_as = {}
-    for start in range(0, len(names), held_classes):
-        held = {names[i] for i in order[start:start + held_classes]}
+    for held in class_rotations(names, held_classes, seed):
         vocab = [n for n in names if n not in held]
         best_in, score_in, best_out, score_out, label_out = [], [], [], [], []
         for f in np.unique(fold):

@@ -38,7 +38,7 @@ from amaranth.hdl import Cat, Elaboratable, Module, Mux, Signal
 from .synthesis import component_ports
 
 __all__ = ["PortShell", "place_and_route", "find_nextpnr", "timing_design", "DEVICE", "ROUTERS",
-           "MAX_IO_BITS", "BLOCKS", "WHOLE_DESIGNS", "CI_BLOCKS"]
+           "MAX_IO_BITS", "BLOCKS", "WHOLE_DESIGNS", "CI_BLOCKS", "child_cpu_seconds"]
 
 #: The part: LFE5U-85F, CABGA381, speed grade 8 (the fastest ECP5).
 DEVICE = {"name": "LFE5U-85F-8CABGA381", "nextpnr": ["--85k", "--package", "CABGA381",
@@ -273,13 +273,13 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
                   f"tee -o stat.txt stat; check -noinit; blackbox =A:whitebox; "
                   f"write_json {name}.json")
         say(f"{name}: synth_ecp5 ...")
-        start, cpu = time.perf_counter(), _child_cpu_s()
+        start, cpu = time.perf_counter(), child_cpu_seconds()
         _run(yosys + ["-q", "-p", script], folder, timeout, "yosys")
         result["synth_s"] = round(time.perf_counter() - start, 1)
-        result["synth_cpu_s"] = round(_child_cpu_s() - cpu, 1)
+        result["synth_cpu_s"] = round(child_cpu_seconds() - cpu, 1)
         result["resources"] = _yosys_stat((folder / "stat.txt").read_text())
         say(f"{name}: nextpnr-ecp5 (placement and routing, {router}) ...")
-        start, cpu = time.perf_counter(), _child_cpu_s()
+        start, cpu = time.perf_counter(), child_cpu_seconds()
         cmd = nextpnr + DEVICE["nextpnr"] + [
             "--json", f"{name}.json", "--lpf", f"{name}.lpf", "--lpf-allow-unconstrained",
             "--report", "report.json", "--detailed-timing-report", "--seed", str(seed),
@@ -287,7 +287,7 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
             "--timing-allow-fail", "-q", "-l", "nextpnr.log"]
         _run(cmd, folder, timeout, "nextpnr-ecp5")
         result["pnr_s"] = round(time.perf_counter() - start, 1)
-        result["pnr_cpu_s"] = round(_child_cpu_s() - cpu, 1)
+        result["pnr_cpu_s"] = round(child_cpu_seconds() - cpu, 1)
         log = (folder / "nextpnr.log").read_text(errors="replace")
         report = json.loads((folder / "report.json").read_text())
     result["placement_s"], result["routing_s"] = _phase_times(log)
@@ -368,7 +368,8 @@ def _top_ports(rtlil_text: str, name: str) -> tuple[list, int]:
     return [p for p, _ in ports], sum(w for _, w in ports)
 
 
-def _child_cpu_s() -> float:
+def child_cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process' finished children so far."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     return usage.ru_utime + usage.ru_stime
 

@@ -20,8 +20,8 @@ import numpy as np
 
 from recognition.recogniser import Recogniser, fold_of_groups
 
-__all__ = ["CVOutcome", "confusion_matrix", "grouped_cross_validation", "open_set_rejection",
-           "confusion_png"]
+__all__ = ["CVOutcome", "class_rotations", "confusion_matrix", "grouped_cross_validation",
+           "open_set_rejection", "confusion_png"]
 
 
 def confusion_matrix(truth, decided, num_classes: int) -> np.ndarray:
@@ -103,6 +103,16 @@ def grouped_cross_validation(recogniser: Recogniser, data, groups, folds: int | 
     return CVOutcome(tuple(names), truth, decided, best, fold)
 
 
+def class_rotations(class_names, held_classes: int, seed: int = 0) -> list[set]:
+    """The open-set protocol's splits: the class names shuffled by ``seed`` and
+    dealt in runs of ``held_classes``; each run is held out once (the other
+    classes are the vocabulary)."""
+    names = list(class_names)
+    order = np.random.default_rng(seed).permutation(len(names))
+    return [{names[i] for i in order[k:k + held_classes]}
+            for k in range(0, len(names), held_classes)]
+
+
 def open_set_rejection(recogniser: Recogniser, data, groups, held_classes: int = 4,
                        folds: int | None = None, seed: int = 0, progress=None) -> dict:
     """Non-gesture rejection: for each rotation of the class split, train on
@@ -117,15 +127,13 @@ def open_set_rejection(recogniser: Recogniser, data, groups, held_classes: int =
     names = list(data.class_names)
     labels = data.label
     groups = np.asarray(groups)
-    order = np.random.default_rng(seed).permutation(len(names))
-    rotations = [order[i:i + held_classes] for i in range(0, len(names), held_classes)]
     fold = (np.unique(groups, return_inverse=True)[1] if folds is None
             else fold_of_groups(labels, groups, folds))
     samples = recogniser.samples(data)
     refused_out = total_out = refused_in = total_in = correct_in = 0
     per_rotation = []
-    for r, held in enumerate(rotations):
-        out_names = {names[i] for i in held}
+    rotations = class_rotations(names, held_classes, seed)
+    for r, out_names in enumerate(rotations):
         vocab = [n for n in names if n not in out_names]
         outside = np.flatnonzero(np.isin(labels, list(out_names)))
         row = {"held_out_classes": sorted(out_names), "refused_out": 0, "out": 0,

@@ -64,6 +64,8 @@ RIGHT_Y_OFFSET = 3.0
 _AMPLITUDE_PX = 200.0          # at the reference size (thesis Fig. 77)
 _AMPLITUDE_SPREAD = 0.15
 _EDGE_MARGIN_PX = 4            # hand kept this far inside the image (and the right view)
+#: Most frames a clip's rest or motion segment may be given (render_clip's n_*).
+MAX_SEGMENT_FRAMES = 10000
 _PRE_REST_S = (0.5, 1.0)       # 15-30 frames at 30 fps
 _MOTION_S = (40 / 30, 80 / 30)  # 40-80 frames at 30 fps
 _TIME_WARP_STRENGTH = 0.1
@@ -348,9 +350,12 @@ class StereoScene:
         pre = frames_in(_PRE_REST_S, 1)
         motion = frames_in(_MOTION_S, 2)
         post = frames_in(_PRE_REST_S, 1)
-        pre = pre if n_pre_rest is None else _check_int("n_pre_rest", n_pre_rest, 0, 10000)
-        motion = motion if n_motion is None else _check_int("n_motion", n_motion, 2, 10000)
-        post = post if n_post_rest is None else _check_int("n_post_rest", n_post_rest, 0, 10000)
+        pre = pre if n_pre_rest is None else _check_int("n_pre_rest", n_pre_rest, 0,
+                                                           MAX_SEGMENT_FRAMES)
+        motion = motion if n_motion is None else _check_int("n_motion", n_motion, 2,
+                                                               MAX_SEGMENT_FRAMES)
+        post = post if n_post_rest is None else _check_int("n_post_rest", n_post_rest, 0,
+                                                              MAX_SEGMENT_FRAMES)
         self.n_pre_rest, self.n_motion, self.n_post_rest = pre, motion, post
         self.frames = pre + motion + post
         self.motion_span = (pre, pre + motion - 1)

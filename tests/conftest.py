@@ -9,7 +9,7 @@ would leave the other worker idle).
 """
 from __future__ import annotations
 
-#: Longest first (wall seconds on this machine, cold build cache, one worker).
+#: Longest first, as ``--durations`` ranked them in a run with a cold build cache.
 SLOW_FILES = (
     "test_hdl_pipeline_verilator.py",   # 640x480 pipeline build and clip, faults, stages
     "test_hdl_place_route.py",          # nextpnr routes

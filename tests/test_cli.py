@@ -245,6 +245,16 @@ def test_demo_small(tmp_path, capsys):
     assert stage_pngs and len(stage_pngs) % len(STAGES) == 0
 
 
+@pytest.mark.parametrize("value", ["-2", "10001"])
+def test_demo_pre_rest_out_of_range_is_one_line_and_writes_nothing(tmp_path, capsys, value):
+    out = tmp_path / "demo"
+    status, stdout, err = run(capsys, "demo", "--pre-rest", value, "-o", out,
+                              "--backend", "model", "--quiet")
+    assert status == 2 and stdout == ""
+    assert err.count("\n") == 1 and "--pre-rest must be in -1..10000" in err
+    assert not out.exists()
+
+
 # ---------------------------------------------------------------- help
 
 HELP_OPTIONS = {
@@ -256,8 +266,8 @@ HELP_OPTIONS = {
                "--prefilter-median", "--no-disparity-median", "--threads"],
     "eval-stereo": ["DISP.png", "GT.png", "--gt-scale", "--max-error", "--exclude-left"],
     "pipeline": ["CLIP", "--output", "--frames", "--threads", "--quiet"],
-    "demo": ["--gesture", "--seed", "--width", "--height", "--output", "--backend", "--stage",
-             "--threads", "--quiet"],
+    "demo": ["--gesture", "--seed", "--pre-rest", "--width", "--height", "--output",
+             "--backend", "--stage", "--threads", "--quiet"],
     "generate": ["--out", "--width", "--height"],
     "resources": ["--width", "--height", "--quiet"],
     "timing": ["--block", "--width", "--height", "--census-window", "--hamming-window",

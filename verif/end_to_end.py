@@ -169,14 +169,14 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                          frame_width=width, frame_height=height)
         done_at = [None]
         shown = [0]
-        started = [time.perf_counter()]   # after the build: the rate is the simulation's
+        started = time.perf_counter()     # after the build: the rate is the simulation's
 
         def finished() -> bool:
             frame = system.cycles // pipeline.frame_cycles
             if progress is not None and frame >= shown[0] + 5 and not system.cameras_done:
                 shown[0] = frame
                 progress(hardware_progress(min(frame, frames), frames, system.cycles,
-                                           time.perf_counter() - started[0]))
+                                           time.perf_counter() - started))
             if not system.cameras_done:
                 return False
             if done_at[0] is None:

@@ -33,8 +33,9 @@ def add_arguments(p):
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
     p.add_argument("--seed", type=int, default=1, help="scene and timing seed")
+    from sim.render import MAX_SEGMENT_FRAMES
     p.add_argument("--pre-rest", type=int, default=DEFAULT_PRE_REST, metavar="FRAMES",
-                   help=f"frames of rest before the gesture, 0-10000 (default "
+                   help=f"frames of rest before the gesture, 0-{MAX_SEGMENT_FRAMES} (default "
                         f"{DEFAULT_PRE_REST}; -1: the renderer's seeded value)")
     p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
     p.add_argument("--height", type=int, default=480, help="frame height in pixels (even)")
@@ -66,14 +67,15 @@ def run(args) -> int:
     from sim.clip import save_clip
     from sim.images import write_png
     from sim.model.pipeline import PipelineParams, run_clip
-    from sim.render import render_clip
+    from sim.render import MAX_SEGMENT_FRAMES, render_clip
     from stereogest.commands.pipeline import parse_frames, progress_printer, write_outputs
     from sw_hps.app import run_on_trajectory
     from sw_hps.hmm import load_models
 
     import sw_hps
-    if not -1 <= args.pre_rest <= 10000:
-        raise ValueError(f"--pre-rest must be in -1..10000, got {args.pre_rest}")
+    if not -1 <= args.pre_rest <= MAX_SEGMENT_FRAMES:
+        raise ValueError(f"--pre-rest must be in -1..{MAX_SEGMENT_FRAMES}, got "
+                         f"{args.pre_rest}")
     say = _say(args.quiet)
     models = load_models(args.model or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
     params = PipelineParams.for_frame(args.width)
