@@ -24,6 +24,7 @@ import argparse
 import json
 import multiprocessing
 import time
+from contextlib import ExitStack
 from pathlib import Path
 
 GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
@@ -92,21 +93,15 @@ def _run(jobs, processes, scheduler):
         with multiprocessing.get_context("fork").Pool(processes) as pool:
             yield from pool.imap_unordered(one_clip, jobs)
         return
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise SystemExit("demo_accuracy: --scheduler needs the 'distributed' package") from None
-    try:
-        client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise SystemExit(f"demo_accuracy: --scheduler {scheduler!r}: cannot connect "
-                         f"({exc})") from None
-    try:
-        futures = client.map(one_clip, jobs, pure=False)
-        for future in as_completed(futures):
+    from recognition.crossval import dask_client
+    with ExitStack() as stack:
+        try:
+            client = stack.enter_context(dask_client(scheduler))
+        except ValueError as exc:           # the connection only, not the clips' errors
+            raise SystemExit(f"demo_accuracy: --{exc}") from None
+        from distributed import as_completed
+        for future in as_completed(client.map(one_clip, jobs, pure=False)):
             yield future.result()
-    finally:
-        client.close()
 
 
 def main(argv=None):

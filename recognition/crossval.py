@@ -15,6 +15,7 @@ import json
 import math
 import os
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -327,9 +328,13 @@ def _run_on_executor(executor, tasks, data, arguments, record):
         raise
 
 
-def _run_on_dask(address, tasks, data, arguments, record):
+@contextmanager
+def dask_client(address: str):
+    """A ``distributed.Client`` of the scheduler at ``address``, closed on exit;
+    ValueError (one line) if the package is missing or the scheduler cannot be
+    reached."""
     try:
-        from distributed import Client, as_completed as dask_completed
+        from distributed import Client
     except ImportError:
         raise ValueError("scheduler needs the 'distributed' package (pip install "
                          "'dask[distributed]')") from None
@@ -338,6 +343,14 @@ def _run_on_dask(address, tasks, data, arguments, record):
     except (OSError, TimeoutError, ValueError) as exc:
         raise ValueError(f"scheduler {address!r}: cannot connect ({exc})") from None
     try:
+        yield client
+    finally:
+        client.close()
+
+
+def _run_on_dask(address, tasks, data, arguments, record):
+    from distributed import as_completed as dask_completed
+    with dask_client(address) as client:
         payload = client.scatter(data, broadcast=True)
         futures = {}
         for task in tasks:
@@ -345,8 +358,6 @@ def _run_on_dask(address, tasks, data, arguments, record):
             futures[future] = task
         for future in dask_completed(list(futures)):
             record(futures[future], future.result())
-    finally:
-        client.close()
 
 
 def write_cv_report(result: CVResult, json_path, png_path) -> None:
