@@ -43,8 +43,9 @@ BUNDLE := build/stereogest-hps.tar.gz
 model: $(STAMP)
 	mkdir -p build
 	$(BIN)/stereogest gestures -o build/corpus.npz --per-class 180 --people 3 --seed 1
-	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/gestures7.json
-	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/thesis7.json --emission discrete \
+	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/gestures7.json --seed 0
+	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/thesis7.json --seed 0 \
+		--emission discrete \
 		--states 5 --no-reject
 
 hps-bundle: $(STAMP)

@@ -93,7 +93,7 @@ def amaranth_speed():
 def modules(p):
     from hdl.census import SparseCensus
     from hdl.column_sum import ColumnSum
-    from hdl.hamming import HammingDistance
+    from hdl.hamming import HammingDistances
     from hdl.lrcc import LeftRightCheck
     from hdl.median3x3 import Median3x3
     from hdl.row_buffer import RowBuffer
@@ -109,7 +109,7 @@ def modules(p):
         ("row_buffer", RowBuffer(w, wh - wc, 8)),
         ("window", WindowGenerator(w, h, 8, wc, wh)),
         ("census", SparseCensus(w, h, wc, 8, separation=wh)),
-        ("hamming", HammingDistance(bits)),
+        ("hamming", HammingDistances(bits, codes=nd)),
         ("column_sum", ColumnSum(w, h, wh, nd, bits, bits // 3)),
         ("window_sum", WindowSum(w, h, wh, nd, wh * bits)),
         ("selectors", DisparitySelectors(w, h, nd, shd.cost_bits)),

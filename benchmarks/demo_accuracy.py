@@ -31,11 +31,9 @@ GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "
 
 
 def _models(path):
-    from stereogest.commands.demo import DEFAULT_MODEL
+    from stereogest.commands.pipeline import shipped_model_path
     from sw_hps.hmm import load_models
-
-    import sw_hps
-    return load_models(path or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
+    return load_models(path or shipped_model_path())
 
 
 def one_clip(job):

@@ -106,6 +106,7 @@ class ColumnSum(wiring.Component):
             m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
                                     - Mux(leave_ok, nmc, 0))
         partners = pos.thermometer(nd, "partner")  # bit d: x >= d
+        partners_2 = delay(m, partners, 2, "partner2")
         # Cycle 2: the new column sums, written back and output.
         for d in range(nd):
             m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
@@ -121,7 +122,7 @@ class ColumnSum(wiring.Component):
                 m.d.comb += [rd.addr.eq(addr), rd.en.eq(beat & partner)]
             else:
                 m.d.comb += [addr.eq(pos.x), rd.addr.eq(addr), rd.en.eq(beat & partner)]
-            partner_2 = delay(m, partner, 2, f"partner2_{d}") if d else 1
+            partner_2 = partners_2[d] if d else 1
             s_new = Signal(cb, name=f"csum_{d}")
             m.d.sync += s_new.eq(Mux(restart_1, 0, rd.data) + deltas[d])
             m.d.comb += [

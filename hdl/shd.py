@@ -14,7 +14,7 @@ Memory (eq. 20 as built here): the column sums, ``(width * D - D * (D - 1) / 2)
 """
 from __future__ import annotations
 
-from amaranth.hdl import Module, Mux, Signal
+from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -22,7 +22,7 @@ from sim.model.matching import MAX_DISPARITY_RANGE
 
 from ._util import RasterPosition, check_geometry, check_int, check_odd_window, delay
 from .column_sum import ColumnSum
-from .hamming import HammingDistance
+from .hamming import HammingDistances
 from .window_sum import WindowSum
 
 __all__ = ["SumOfHammingDistances"]
@@ -62,9 +62,10 @@ class SumOfHammingDistances(wiring.Component):
         nd, w, h, wh = self.max_disparity, self.width, self.height, self.hamming_window
         self._columns = ColumnSum(w, h, wh, nd, census_bits, self.no_match_cost)
         self._windows = WindowSum(w, h, wh, nd, wh * census_bits)
-        self._ham = [[HammingDistance(census_bits) for _ in range(nd)] for _ in range(2)]
+        # one bank of D distances for the entering rows (V1), one for the leaving (V2)
+        self._ham = [HammingDistances(census_bits, codes=nd) for _ in range(2)]
         self.lag = self._columns.lag + self._windows.lag
-        self.cycles = self._ham[0][0].cycles + self._columns.cycles + self._windows.cycles
+        self.cycles = self._ham[0].cycles + self._columns.cycles + self._windows.cycles
         self.cost_bits = self._windows.sum_bits
         self.memory_bits = {"column sums": self._columns.memory_bits,
                             "window-sum ring buffer": self._windows.memory_bits}
@@ -79,9 +80,9 @@ class SumOfHammingDistances(wiring.Component):
 
     @property
     def stages(self) -> dict:
-        """Its parts by name: the column and window sums and one of the
-        ``2 * max_disparity`` Hamming units (all alike)."""
-        return {"columns": self._columns, "windows": self._windows, "hamming": self._ham[0][0]}
+        """Its parts by name: the column and window sums and one of the two
+        banks of ``max_disparity`` Hamming distances (alike)."""
+        return {"columns": self._columns, "windows": self._windows, "hamming": self._ham[0]}
 
     def elaborate(self, platform):
         m = Module()
@@ -90,28 +91,29 @@ class SumOfHammingDistances(wiring.Component):
         p = self.i_stream.payload
         pos = RasterPosition(self.width, self.height, 0, "pix").elaborate(m, beat, p.first)
 
-        # Delay lines of the right codes: right[k] = code of raster position x - k.
-        right = {1: [p.right], 2: [p.right2]}
-        for win in (1, 2):
-            src = p.right if win == 1 else p.right2
-            for k in range(1, nd):
-                reg = Signal(cb, name=f"right{win}_{k}")
-                with m.If(beat):
-                    m.d.sync += reg.eq(src if k == 1 else right[win][k - 1])
-                right[win].append(reg)
-
+        # Delay lines of the right codes in bit-plane order (what HammingDistances
+        # takes): bit k of `right{win}_bit{j}` is bit j of the code at raster
+        # position x - k - 1. The registers of a line of D codes, held as one
+        # word per code bit instead of one per code.
         m.submodules.columns = cols = self._columns
         m.submodules.windows = wins = self._windows
-        lh = self._ham[0][0].cycles
-        partners = pos.thermometer(nd, "partner")  # bit d: x >= d
-        for d in range(nd):
-            has_partner = delay(m, partners[d], lh, f"partner_{d}")
-            for win, left, field in ((1, p.left, cols.i_stream.payload.enter),
-                                     (2, p.left2, cols.i_stream.payload.leave)):
-                ham = self._ham[win - 1][d]
-                m.submodules[f"ham{win}_{d}"] = ham
-                m.d.comb += [ham.a.eq(left), ham.b.eq(right[win][d])]
-                m.d.comb += field[d].eq(Mux(has_partner, ham.distance, self.no_match_cost))
+        lh = self._ham[0].cycles
+        has_partner = delay(m, pos.thermometer(nd, "partner"), lh, "partner")  # bit d: x >= d
+        for win, left, right, field in ((1, p.left, p.right, cols.i_stream.payload.enter),
+                                        (2, p.left2, p.right2, cols.i_stream.payload.leave)):
+            ham = self._ham[win - 1]
+            m.submodules[f"ham{win}"] = ham
+            for j in range(cb):
+                plane = right[j]
+                if nd > 1:
+                    line = Signal(nd - 1, name=f"right{win}_bit{j}")
+                    with m.If(beat):
+                        m.d.sync += line.eq(Cat(right[j], line[:-1]))
+                    plane = Cat(right[j], line)
+                m.d.comb += ham.b[j].eq(plane)
+            m.d.comb += ham.a.eq(left)
+            for d in range(nd):
+                m.d.comb += field[d].eq(Mux(has_partner[d], ham.distance[d], self.no_match_cost))
         m.d.comb += [
             cols.i_stream.valid.eq(delay(m, beat, lh, "valid")),
             cols.i_stream.payload.first.eq(delay(m, p.first, lh, "first")),

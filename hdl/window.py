@@ -15,7 +15,7 @@ masks those taps.
 """
 from __future__ import annotations
 
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Cat, Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -91,7 +91,10 @@ class WindowGenerator(wiring.Component):
         # it) a line of width - win beats, behind any other row a line of width.
         pb = self.pixel_bits
         used = self.used_rows
-        shift = {k: [Signal(pb, name=f"win_r{k}_c{s}") for s in range(win)] for k in used}
+        # One word per window row (tap s at bits s*pb ..): the same registers as
+        # a register per tap, but a simulator shifts a row in one operation.
+        shift_row = {k: Signal(win * pb, name=f"win_r{k}") for k in used}
+        shift = {k: [shift_row[k][s * pb:(s + 1) * pb] for s in range(win)] for k in used}
         short = [k for k in range(1, self.buffer_rows + 1) if k - 1 in used]
         long_ = [k for k in range(1, self.buffer_rows + 1) if k - 1 not in used]
         col_valid = delay(m, beat, 1, "col_valid")
@@ -114,9 +117,7 @@ class WindowGenerator(wiring.Component):
                 m.d.comb += rb.i_data[lane].eq(src)
         with m.If(col_valid):
             for k in used:
-                m.d.sync += shift[k][0].eq(column[k])
-                for s in range(1, win):
-                    m.d.sync += shift[k][s].eq(shift[k][s - 1])
+                m.d.sync += shift_row[k].eq(Cat(column[k], shift_row[k][:-pb]))
 
         out = self.o_stream.payload
         for i in range(win):

@@ -55,6 +55,9 @@ class TrajectorySet:
                              f"{label.shape}")
         if label.dtype.kind not in "UO":
             raise ValueError(f"label must be ({n},) strings, got dtype {label.dtype}")
+        empty = np.flatnonzero(label.astype(str) == "")
+        if empty.size:
+            raise ValueError(f"label must not be empty (trajectory {int(empty[0])})")
         object.__setattr__(self, "points", points.astype(np.float64))
         object.__setattr__(self, "offsets", offsets.astype(np.int64))
         object.__setattr__(self, "label", label.astype(str))
@@ -107,15 +110,19 @@ def load_trajectories(path) -> TrajectorySet:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such dataset file: {path}")
+    import zipfile
     try:
-        with np.load(path, allow_pickle=False) as data:
+        data = np.load(path, allow_pickle=False)
+        if not isinstance(data, np.lib.npyio.NpzFile):      # a .npy named .npz
+            raise ValueError("it holds one array (.npy), not a set of named arrays (.npz)")
+        with data:
             arrays = {}
             for key in data.files:
                 try:
                     arrays[key] = data[key]
                 except ValueError as exc:  # e.g. a pickled object array
                     raise ValueError(f"{path}: {key}: cannot be read ({exc})") from None
-    except (OSError, EOFError) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
         raise ValueError(f"{path}: not a readable .npz file ({exc})") from None
     except ValueError as exc:
         if str(exc).startswith(str(path)):

@@ -2,10 +2,16 @@
 
 Layout of a clip directory::
 
-    clip.json   metadata (see :data:`REQUIRED_FIELDS`)
+    clip.json   metadata (see :data:`REQUIRED_FIELDS` and :data:`TRUTH_FIELDS`)
     left.npy    (frames, height, 2*width) uint8, the left camera's YCbCr 4:2:2 stream
     right.npy   (frames, height, 2*width) uint8, the right camera's stream
-    truth.csv   frame,hand_x,hand_y,hand_area,moving
+    truth.csv   frame,hand_x,hand_y,hand_area,moving (rendered clips only)
+
+A rendered clip (``stereogest render``) knows its truth: ``gesture``, the
+:data:`TRUTH_FIELDS` and ``truth.csv``. Footage (``stereogest clip``, from
+video files or cameras) has none of them; ``gesture`` may still label it, and
+``source`` says where the frames came from. Every command that reads clips
+accepts both.
 
 Each frame row of a ``.npy`` is the camera byte stream ``Y0 Cb0 Y1 Cr0 ...``
 (thesis §5.4, Table 11). ``truth.csv`` gives, per frame, the exact centroid of
@@ -36,7 +42,8 @@ from sim.gesture_shapes import GESTURE_NAMES
 
 __all__ = [
     "CLIP_FORMAT", "CLIP_VERSION", "PIXEL_FORMAT", "MAX_DISPARITY", "TRUTH_HEADER",
-    "REQUIRED_FIELDS", "Clip", "save_clip", "load_clip", "is_clip_dir", "round_truth",
+    "REQUIRED_FIELDS", "TRUTH_FIELDS", "Clip", "save_clip", "load_clip", "is_clip_dir",
+    "round_truth",
 ]
 
 CLIP_FORMAT = "stereogest-clip"
@@ -45,10 +52,12 @@ PIXEL_FORMAT = "YCbCr 4:2:2, bytes Y0 Cb Y1 Cr"
 #: Number of disparities of the matcher (d in 0..47).
 MAX_DISPARITY = 48
 TRUTH_HEADER = ("frame", "hand_x", "hand_y", "hand_area", "moving")
-#: Keys every ``clip.json`` holds; ``renderer`` (a free-form object) is optional.
-REQUIRED_FIELDS = ("format", "version", "gesture", "seed", "width", "height", "frames",
-                   "fps", "pixel_format", "hand_disparity", "face_disparity",
-                   "motion_frames")
+#: Keys every ``clip.json`` holds. Optional: ``gesture`` (required with the
+#: truth), ``renderer`` and ``source`` (free-form objects).
+REQUIRED_FIELDS = ("format", "version", "width", "height", "frames", "fps", "pixel_format")
+#: Keys of a rendered clip's truth, present together (with ``gesture`` and
+#: ``truth.csv``) or not at all (footage).
+TRUTH_FIELDS = ("seed", "hand_disparity", "face_disparity", "motion_frames")
 
 _JSON, _LEFT, _RIGHT, _TRUTH = "clip.json", "left.npy", "right.npy", "truth.csv"
 
@@ -73,18 +82,21 @@ class Clip:
 
     Attributes
     ----------
-    gesture : str
-        One of :data:`sim.gesture_shapes.GESTURE_NAMES`.
-    seed : int, >= 0
-        Seed the clip was rendered with.
     fps : int, 1..1000
         Nominal frame rate.
+    left, right : (frames, height, 2*width) uint8
+        Camera byte streams (YCbCr 4:2:2, ``Y0 Cb Y1 Cr``).
+    gesture : str or None
+        One of :data:`sim.gesture_shapes.GESTURE_NAMES`; None for unlabelled footage.
+
+    The truth of a rendered clip (all None for footage, see :attr:`has_truth`):
+
+    seed : int, >= 0
+        Seed the clip was rendered with.
     hand_disparity, face_disparity : int, 0..47
         Disparities (pixels) of the hand and face layers.
     motion_frames : (int, int)
         First and last (inclusive) frame of the gesture motion.
-    left, right : (frames, height, 2*width) uint8
-        Camera byte streams (YCbCr 4:2:2, ``Y0 Cb Y1 Cr``).
     hand_xy : (frames, 2) float64
         Centroid ``(x, y)`` of the hand pixels of the left image, two decimals;
         NaN where ``hand_area`` is 0.
@@ -92,19 +104,27 @@ class Clip:
         Number of hand pixels in the left image.
     renderer : dict
         Extra JSON-serialisable metadata (renderer parameters).
+    source : dict
+        Where footage came from (the inputs, the conversion); empty when rendered.
     """
 
-    gesture: str
-    seed: int
     fps: int
-    hand_disparity: int
-    face_disparity: int
-    motion_frames: tuple[int, int]
     left: np.ndarray
     right: np.ndarray
-    hand_xy: np.ndarray
-    hand_area: np.ndarray
+    gesture: str | None = None
+    seed: int | None = None
+    hand_disparity: int | None = None
+    face_disparity: int | None = None
+    motion_frames: tuple[int, int] | None = None
+    hand_xy: np.ndarray | None = None
+    hand_area: np.ndarray | None = None
     renderer: dict = field(default_factory=dict)
+    source: dict = field(default_factory=dict)
+
+    @property
+    def has_truth(self) -> bool:
+        """True for a rendered clip (hand positions and motion span known)."""
+        return self.hand_xy is not None
 
     @property
     def frames(self) -> int:
@@ -119,8 +139,11 @@ class Clip:
         return int(self.left.shape[2]) // 2
 
     @property
-    def moving(self) -> np.ndarray:
-        """(frames,) bool: True inside the motion span ``motion_frames``."""
+    def moving(self) -> np.ndarray | None:
+        """(frames,) bool: True inside the motion span ``motion_frames`` (None
+        without truth)."""
+        if self.motion_frames is None:
+            return None
         first, last = self.motion_frames
         index = np.arange(self.frames)
         return (index >= first) & (index <= last)
@@ -129,15 +152,20 @@ class Clip:
         """The ``clip.json`` content of this clip."""
         meta = {
             "format": CLIP_FORMAT, "version": CLIP_VERSION,
-            "gesture": self.gesture, "seed": int(self.seed),
             "width": self.width, "height": self.height, "frames": self.frames,
             "fps": int(self.fps), "pixel_format": PIXEL_FORMAT,
-            "hand_disparity": int(self.hand_disparity),
-            "face_disparity": int(self.face_disparity),
-            "motion_frames": [int(self.motion_frames[0]), int(self.motion_frames[1])],
         }
+        if self.gesture is not None:
+            meta["gesture"] = self.gesture
+        for key in TRUTH_FIELDS:
+            value = getattr(self, key)
+            if value is not None:
+                meta[key] = ([_plain(v) for v in value] if key == "motion_frames"
+                             else _plain(value))
         if self.renderer:
             meta["renderer"] = self.renderer
+        if self.source:
+            meta["source"] = self.source
         return meta
 
     def validate(self) -> None:
@@ -151,8 +179,18 @@ class Clip:
         if self.right.shape != self.left.shape:
             raise ValueError(f"Clip.right shape {self.right.shape} differs from "
                              f"Clip.left shape {self.left.shape}")
-        _check_truth_arrays(np.asarray(self.hand_xy), np.asarray(self.hand_area),
-                            self.frames, "Clip")
+        if (self.hand_xy is None) != (self.hand_area is None) or \
+                (self.hand_xy is None) != (self.motion_frames is None):
+            raise ValueError("Clip.hand_xy, Clip.hand_area and Clip.motion_frames are given "
+                             "together (a rendered clip) or not at all (footage)")
+        if self.has_truth:
+            _check_truth_arrays(np.asarray(self.hand_xy), np.asarray(self.hand_area),
+                                self.frames, "Clip")
+
+
+def _plain(value):
+    """A numpy integer as a JSON-ready int (other values unchanged)."""
+    return int(value) if _is_int(value) else value
 
 
 def _check_metadata(meta, where: str) -> dict:
@@ -162,6 +200,13 @@ def _check_metadata(meta, where: str) -> dict:
     for key in REQUIRED_FIELDS:
         if key not in meta:
             raise ValueError(f"{where}: missing field '{key}'")
+    truth = [key for key in TRUTH_FIELDS if key in meta]
+    if truth:
+        for key in ("gesture",) + TRUTH_FIELDS:
+            if key not in meta:
+                raise ValueError(f"{where}: missing field '{key}' (a rendered clip has "
+                                 f"'gesture' and all of {', '.join(TRUTH_FIELDS)}; footage "
+                                 f"none of the latter)")
 
     def bad(key: str, expected: str) -> ValueError:
         return ValueError(f"{where}: field '{key}' must be {expected}, got {meta[key]!r}")
@@ -170,10 +215,8 @@ def _check_metadata(meta, where: str) -> dict:
         raise bad("format", repr(CLIP_FORMAT))
     if not _is_int(meta["version"]) or meta["version"] != CLIP_VERSION:
         raise bad("version", str(CLIP_VERSION))
-    if meta["gesture"] not in GESTURE_NAMES:
+    if "gesture" in meta and meta["gesture"] not in GESTURE_NAMES:
         raise bad("gesture", "one of " + ", ".join(GESTURE_NAMES))
-    if not _is_int(meta["seed"]) or meta["seed"] < 0:
-        raise bad("seed", "a non-negative integer")
     if not _is_int(meta["width"]) or meta["width"] < 2 or meta["width"] % 2:
         raise bad("width", "an even integer >= 2 (pixels come in 4:2:2 pairs)")
     if not _is_int(meta["height"]) or meta["height"] < 1:
@@ -184,16 +227,20 @@ def _check_metadata(meta, where: str) -> dict:
         raise bad("fps", "an integer in [1, 1000]")
     if meta["pixel_format"] != PIXEL_FORMAT:
         raise bad("pixel_format", repr(PIXEL_FORMAT))
-    for key in ("hand_disparity", "face_disparity"):
-        if not _is_int(meta[key]) or not 0 <= meta[key] < MAX_DISPARITY:
-            raise bad(key, f"an integer in [0, {MAX_DISPARITY - 1}]")
-    span = meta["motion_frames"]
-    if (not isinstance(span, (list, tuple)) or len(span) != 2
-            or not all(_is_int(v) for v in span)
-            or not 0 <= span[0] <= span[1] < meta["frames"]):
-        raise bad("motion_frames", "[first, last] with 0 <= first <= last < frames")
-    if "renderer" in meta and not isinstance(meta["renderer"], dict):
-        raise bad("renderer", "a JSON object")
+    if truth:
+        if not _is_int(meta["seed"]) or meta["seed"] < 0:
+            raise bad("seed", "a non-negative integer")
+        for key in ("hand_disparity", "face_disparity"):
+            if not _is_int(meta[key]) or not 0 <= meta[key] < MAX_DISPARITY:
+                raise bad(key, f"an integer in [0, {MAX_DISPARITY - 1}]")
+        span = meta["motion_frames"]
+        if (not isinstance(span, (list, tuple)) or len(span) != 2
+                or not all(_is_int(v) for v in span)
+                or not 0 <= span[0] <= span[1] < meta["frames"]):
+            raise bad("motion_frames", "[first, last] with 0 <= first <= last < frames")
+    for key in ("renderer", "source"):
+        if key in meta and not isinstance(meta[key], dict):
+            raise bad(key, "a JSON object")
     return meta
 
 
@@ -276,8 +323,9 @@ def save_clip(clip: Clip, path) -> Path:
             fh.write("\n")
         np.save(staging / _LEFT, np.ascontiguousarray(clip.left), allow_pickle=False)
         np.save(staging / _RIGHT, np.ascontiguousarray(clip.right), allow_pickle=False)
-        with open(staging / _TRUTH, "w", encoding="utf-8", newline="") as fh:
-            fh.write(_truth_text(clip))
+        if clip.has_truth:
+            with open(staging / _TRUTH, "w", encoding="utf-8", newline="") as fh:
+                fh.write(_truth_text(clip))
         os.chmod(staging, 0o755)        # mkdtemp makes it private
         if target.exists():
             # Move the old clip aside first: a rename cannot replace a non-empty dir.
@@ -405,6 +453,12 @@ def load_clip(path, mmap: bool = True) -> Clip:
     shape = (meta["frames"], meta["height"], 2 * meta["width"])
     left = _load_array(root / _LEFT, shape, mmap)
     right = _load_array(root / _RIGHT, shape, mmap)
+    if "motion_frames" not in meta:             # footage
+        if (root / _TRUTH).exists():
+            raise ValueError(f"{_TRUTH}: present, but {_JSON} has no truth fields "
+                             f"({', '.join(TRUTH_FIELDS)})")
+        return Clip(fps=meta["fps"], left=left, right=right, gesture=meta.get("gesture"),
+                    renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     hand_xy, hand_area, moving = _load_truth(root / _TRUTH, meta["frames"])
 
     clip = Clip(gesture=meta["gesture"], seed=meta["seed"], fps=meta["fps"],
@@ -412,7 +466,7 @@ def load_clip(path, mmap: bool = True) -> Clip:
                 face_disparity=meta["face_disparity"],
                 motion_frames=(meta["motion_frames"][0], meta["motion_frames"][1]),
                 left=left, right=right, hand_xy=hand_xy, hand_area=hand_area,
-                renderer=meta.get("renderer", {}))
+                renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     _check_truth_arrays(hand_xy, hand_area, clip.frames, _TRUTH)
     mismatch = np.flatnonzero(moving != clip.moving)
     if mismatch.size:

@@ -43,10 +43,15 @@ def read_grey(path) -> np.ndarray:
 
 
 def read_array(path) -> np.ndarray:
-    """Read a single-channel image file (8 or 16 bit) as an integer array."""
+    """Read a single-channel image file (8 or 16 bit) as an integer array; a
+    grey image stored as RGB(A) is accepted, a colour one refused (ValueError
+    naming the file: a photo is not a map)."""
     img = _open(path)
     arr = np.asarray(img)
     if arr.ndim == 3:
+        colour = arr[..., :3]
+        if (colour != colour[..., :1]).any():
+            raise ValueError(f"{path}: a colour image, expected a single-channel map")
         arr = arr[..., 0]
     return arr.astype(np.int64) if arr.dtype.kind in "iu" else arr
 

@@ -51,6 +51,7 @@ from sim.model.ycbcr import ycbcr444_to_422
 __all__ = [
     "REFERENCE_WIDTH", "REFERENCE_HEIGHT", "LAYER_LABELS", "NOISE_SIGMA_Y",
     "NOISE_SIGMA_C", "RIGHT_Y_GAIN", "RIGHT_Y_OFFSET", "StereoScene", "render_clip",
+    "WIDTH_RANGE", "HEIGHT_RANGE", "MAX_SEGMENT_FRAMES",
 ]
 
 REFERENCE_WIDTH, REFERENCE_HEIGHT = 640, 480
@@ -66,6 +67,10 @@ _AMPLITUDE_SPREAD = 0.15
 _EDGE_MARGIN_PX = 4            # hand kept this far inside the image (and the right view)
 #: Most frames a clip's rest or motion segment may be given (render_clip's n_*).
 MAX_SEGMENT_FRAMES = 10000
+#: Frame sizes the renderer draws (both even: 4:2:2 pixel pairs); footage
+#: (sim.footage) and the commands that render use the same.
+WIDTH_RANGE = (96, 4096)
+HEIGHT_RANGE = (64, 4096)
 _PRE_REST_S = (0.5, 1.0)       # 15-30 frames at 30 fps
 _MOTION_S = (40 / 30, 80 / 30)  # 40-80 frames at 30 fps
 _TIME_WARP_STRENGTH = 0.1
@@ -238,13 +243,14 @@ class StereoScene:
         self.gesture_id = gesture_id(gesture)
         self.gesture = gesture
         self.seed = _check_int("seed", seed, 0, 2 ** 63 - 1)
-        self.width = _check_int("width", width, 96, 4096)
-        self.height = _check_int("height", height, 64, 4096)
+        self.width = _check_int("width", width, *WIDTH_RANGE)
+        self.height = _check_int("height", height, *HEIGHT_RANGE)
         if self.width % 2:
-            raise ValueError(f"width must be even, in [96, 4096] (4:2:2 pixel pairs), "
-                             f"got {width}")
+            raise ValueError(f"width must be even, in [{WIDTH_RANGE[0]}, {WIDTH_RANGE[1]}] "
+                             f"(4:2:2 pixel pairs), got {width}")
         if self.height % 2:
-            raise ValueError(f"height must be even, in [64, 4096], got {height}")
+            raise ValueError(f"height must be even, in [{HEIGHT_RANGE[0]}, {HEIGHT_RANGE[1]}], "
+                             f"got {height}")
         self.fps = _check_int("fps", fps, 5, 240)
         top = MAX_DISPARITY - 1
         self.disparities = {

@@ -1,8 +1,8 @@
 """The ``stereogest`` console script: one subcommand per job.
 
 Every subcommand lives in :mod:`stereogest.commands`; a ``ValueError`` raised by
-parameter validation is reported as a one-line error (exit status 2), never
-as a traceback.
+parameter validation, or an ``OSError`` of a file it reads or writes, is
+reported as a one-line error (exit status 2), never as a traceback.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order a user meets them.
-COMMANDS = ("render", "stereo", "eval_stereo", "pipeline", "demo", "gestures", "train", "classify",
+COMMANDS = ("render", "clip", "stereo", "eval_stereo", "pipeline", "demo", "live", "gestures", "train", "classify",
             "resources", "timing", "generate")
 
 
@@ -25,19 +25,50 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``stereogest COMMAND:
+    error: argument --width: invalid int value: 'abc'``, exit status 2):
+    ``--help`` has the usage."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _version() -> str:
+    """The installed distribution's version (pyproject.toml is its one source)."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("stereogest")
+    except PackageNotFoundError:
+        return "(not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="stereogest",
         description="Stereo-vision hand-gesture recogniser for the DE1-SoC: "
                     "golden model, scene renderer and tools.")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,
+                                parser_class=_Parser)
     for mod_name in COMMANDS:
         mod = importlib.import_module(f"stereogest.commands.{mod_name}")
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.__doc__,
                            formatter_class=_HelpFormatter)
         mod.add_arguments(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(_run=mod.run, _parser=p)
     return parser
+
+
+def in_option_names(message: str, parser: argparse.ArgumentParser) -> str:
+    """A validation message that starts with a parameter's name
+    (``census_window must be ...``) in terms of the option that sets it
+    (``--census-window must be ...``)."""
+    word = message.split(" ", 1)[0].rstrip(":,")
+    for action in parser._actions:
+        if action.dest == word and action.option_strings:
+            return max(action.option_strings, key=len) + message[len(word):]
+    return message
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -46,7 +77,19 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"stereogest {args.command}: error: {exc}", file=sys.stderr)
+        message = in_option_names(str(exc), args._parser)
+        print(f"stereogest {args.command}: error: {message}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # `stereogest ... | head`: the reader left, nothing to say
+        import os
+        try:    # no second error when Python flushes stdout at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):
+            pass
+        return 1
+    except OSError as exc:  # a path that cannot be read or written: no traceback
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"stereogest {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
     except RuntimeError as exc:  # a tool (Verilator, yosys) or a simulation failed
         print(f"stereogest {args.command}: error: {exc}", file=sys.stderr)

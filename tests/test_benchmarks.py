@@ -90,3 +90,30 @@ def test_demo_accuracy_refuses_an_unreachable_scheduler():
     with pytest.raises(SystemExit, match="cannot connect"):
         bench.main(["--backend", "model", "--per-gesture", "1", "--gesture", "stop",
                     "--scheduler", "tcp://127.0.0.1:9"])
+
+
+@pytest.mark.parametrize("script, blocks", [("bench_stereo_hw", "modules"),
+                                            ("bench_pipeline_hw", "blocks")])
+def test_hardware_benchmarks_build_their_blocks(script, blocks):
+    """The blocks the resource benchmarks synthesize still construct and
+    elaborate (the benchmarks themselves take tens of minutes)."""
+    import warnings
+
+    from amaranth.back import rtlil
+    bench = load_script(script)
+    found = bench.modules(bench.THESIS) if blocks == "modules" else bench.blocks()
+    assert len(found) >= 8
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        name, dut = min(found, key=lambda item: item[0] != "hamming")
+        assert "module" in rtlil.convert(dut, name=name)
+
+
+def test_bench_live_small_prints_json(capsys):
+    bench = load_script("bench_live")
+    assert bench.main(["--frames", "10", "--width", "160", "--height", "120"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["frames"] == 10 and set(result["runs"]) == {"1", "2"}      # stereo threads
+    for run in result["runs"].values():
+        assert run["cpu_seconds_per_frame"] > 0 and run["frames_per_wall_second"] > 0
+    assert result["target_frames_per_second"] == 15 and isinstance(result["met"], bool)

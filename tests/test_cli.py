@@ -14,6 +14,7 @@ from sim.evaluate import score_disparity
 from sim.images import read_array, read_grey
 from sim.model.pipeline import PipelineParams, run_clip
 from sim.model.stereo import stereo_match
+from sim.pictures import LEGEND_HEIGHT
 from sim.render import render_clip
 from tests.cli_helpers import assert_one_line_error, run
 
@@ -52,7 +53,13 @@ def test_stereo_writes_the_model_disparity(tmp_path, capsys, tsukuba_disparity):
     info = json.loads(lines[0])
     assert info["output"] == str(out) and (info["width"], info["height"]) == (384, 288)
     assert info["pct_invalid"] == pytest.approx(100 * (tsukuba_disparity == 0).mean(), abs=1e-3)
-    assert files_in(tmp_path) == ["disp.png"]           # no temporary file left
+    # beside it, a preview a person can read: colour-mapped, with the colour bar
+    assert info["preview"] == str(tmp_path / "disp_colour.png")
+    assert files_in(tmp_path) == ["disp.png", "disp_colour.png"]  # no temporary file left
+    preview = np.asarray(Image.open(tmp_path / "disp_colour.png"))
+    assert preview.shape[0] == 288 and preview.shape[1] > 384 and preview.shape[2] == 3
+    assert not preview[:, :384][tsukuba_disparity == 0].any()        # no match: black
+    assert preview[:, :384][tsukuba_disparity > 0].any(axis=1).all()
 
 
 def test_stereo_options_reach_the_matcher(tmp_path, capsys):
@@ -78,9 +85,9 @@ def test_stereo_errors(tmp_path, capsys, case):
     elif case == "sizes":
         right, words = VENUS / "right.png", ["384x288", "434x383"]
     elif case == "census":
-        extra, words = ["--census-window", "4"], ["census_window"]
+        extra, words = ["--census-window", "4"], ["--census-window must be odd"]
     elif case == "hamming":
-        extra, words = ["--hamming-window", "14"], ["hamming_window"]
+        extra, words = ["--hamming-window", "14"], ["--hamming-window must be odd"]
     else:
         left = tmp_path / "text.png"
         left.write_text("not a picture")
@@ -121,8 +128,8 @@ def test_eval_stereo_matches_score_disparity(tmp_path, capsys, tsukuba_disparity
 
 
 @pytest.mark.parametrize("extra, words", [
-    (["--gt-scale", "0"], ["gt_scale"]),
-    (["--gt-scale", "16", "--exclude-left", "999"], ["exclude_left"]),
+    (["--gt-scale", "0"], ["--gt-scale must be"]),
+    (["--gt-scale", "16", "--exclude-left", "999"], ["--exclude-left must be in"]),
     (["--gt-scale", "16", "--max-error", "-1"], ["--max-error"]),
 ])
 def test_eval_stereo_bad_options(capsys, extra, words):
@@ -164,7 +171,10 @@ def test_pipeline_outputs(tmp_path, capsys, clip_dir):
     assert "frame 14/14" in err                         # progress (not --quiet)
     assert str(out) in stdout
 
-    trajectory, kept = run_clip(clip.left, clip.right, keep=lambda n: n in (0, 5))
+    # the spotting scaled to the frame as in `demo` (PipelineParams.for_frame)
+    params = PipelineParams.for_frame(320)
+    assert "spotting: Tm = 15 px" in err
+    trajectory, kept = run_clip(clip.left, clip.right, params, keep=lambda n: n in (0, 5))
     assert trajectory.flag.any() and (trajectory.symbol >= 0).any()     # not a trivial clip
 
     with open(out / "trajectory.csv", newline="") as fh:
@@ -177,7 +187,10 @@ def test_pipeline_outputs(tmp_path, capsys, clip_dir):
                        str(int(trajectory.symbol[n]))], n
 
     pictures = sorted(p.name for p in out.glob("frame_*.png"))
-    assert pictures == sorted(f"frame_{n:04d}_{s}.png" for n in (0, 5) for s in STAGES)
+    assert pictures == sorted(f"frame_{n:04d}_{s}.png" for n in (0, 5)
+                              for s in STAGES + ("sheet",))
+    sheet = np.asarray(Image.open(out / "frame_0005_sheet.png"))
+    assert sheet.ndim == 3 and sheet.shape[0] > 2 * 240 and sheet.shape[1] > 3 * 320
     for n in (0, 5):
         st = kept[n]
         assert np.array_equal(read_array(out / f"frame_{n:04d}_left.png"), st.left)
@@ -189,13 +202,15 @@ def test_pipeline_outputs(tmp_path, capsys, clip_dir):
         assert rgb.shape == (240, 320, 3)
         assert not rgb[st.disparity == 0].any() and rgb[st.disparity > 0].any(axis=1).all()
     traj_png = np.asarray(Image.open(out / "trajectory.png"))
-    assert traj_png.shape == (240, 320, 3)
+    assert traj_png.shape == (240 + LEGEND_HEIGHT, 320, 3)           # the legend below
 
     summary = json.loads((out / "summary.json").read_text())
     assert summary["gesture"] == "rotate-right" and summary["frames"] == clip.frames
     assert summary["gesture_frames"] == int(trajectory.flag.sum())
     assert summary["symbols"] == "".join(str(s) for s in trajectory.symbol if s >= 0)
-    assert summary["params"] == json.loads(json.dumps(PipelineParams().as_dict()))
+    assert summary["params"] == json.loads(json.dumps(params.as_dict()))
+    assert "recognised" in summary and "telegram" in summary
+    assert f"recognised: {summary['recognised'] or 'none'}" in stdout
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith("frame_")) == [
         "summary.json", "trajectory.csv", "trajectory.png"]
 
@@ -242,7 +257,7 @@ def test_demo_small(tmp_path, capsys):
     pictures = out / "pipeline"
     assert (pictures / "trajectory.png").is_file() and (pictures / "summary.json").is_file()
     stage_pngs = list(pictures.glob("frame_*_*.png"))
-    assert stage_pngs and len(stage_pngs) % len(STAGES) == 0
+    assert stage_pngs and len(stage_pngs) % (len(STAGES) + 1) == 0      # + the sheet
 
 
 @pytest.mark.parametrize("value", ["-2", "10001"])
@@ -258,17 +273,20 @@ def test_demo_pre_rest_out_of_range_is_one_line_and_writes_nothing(tmp_path, cap
 # ---------------------------------------------------------------- help
 
 HELP_OPTIONS = {
-    None: ["render", "stereo", "eval-stereo", "pipeline", "demo", "generate", "resources",
-           "timing"],
+    None: ["render", "clip", "stereo", "eval-stereo", "pipeline", "demo", "generate",
+           "resources", "timing", "--version"],
+    "clip": ["--left", "--right", "--output", "--width", "--height", "--fps", "--frames",
+             "--gesture", "--json"],
     "render": ["--gesture", "--seed", "--output", "--width", "--height", "--fps"],
     "stereo": ["LEFT", "RIGHT", "--output", "--census-window", "--hamming-window",
                "--max-disparity", "--lrcc-threshold", "--no-match-cost",
                "--prefilter-median", "--no-disparity-median", "--threads"],
     "eval-stereo": ["DISP.png", "GT.png", "--gt-scale", "--max-error", "--exclude-left"],
-    "pipeline": ["CLIP", "--output", "--frames", "--threads", "--quiet"],
+    "pipeline": ["CLIP", "--output", "--frames", "--threads", "--spot-threshold", "--spot-hold",
+                 "--model", "--json", "--quiet"],
     "demo": ["--gesture", "--seed", "--pre-rest", "--width", "--height", "--output",
-             "--backend", "--stage", "--threads", "--quiet"],
-    "generate": ["--out", "--width", "--height"],
+             "--backend", "--stage", "--threads", "--clip", "--quiet"],
+    "generate": ["--output", "--out", "--width", "--height"],
     "resources": ["--width", "--height", "--quiet"],
     "timing": ["--block", "--width", "--height", "--census-window", "--hamming-window",
                "--max-disparity", "--opening-size", "--seed", "--router", "--json", "--keep"],
@@ -297,4 +315,31 @@ def test_no_command_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
         cli.main([])
     assert exc.value.code == 2
-    assert "usage: stereogest" in capsys.readouterr().err
+    err = capsys.readouterr().err          # one line; --help has the usage
+    assert err == "stereogest: error: the following arguments are required: COMMAND\n"
+
+
+def test_version_and_one_seed_default(capsys):
+    from importlib.metadata import version
+
+    from stereogest.commands import DEFAULT_SEED
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"stereogest {version('stereogest')}"
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    seeds = {name: next(a.default for a in p._actions if a.dest == "seed")
+             for name, p in sub.choices.items() if any(a.dest == "seed" for a in p._actions)}
+    assert set(seeds) == {"render", "demo", "gestures", "train", "timing"}
+    assert set(seeds.values()) == {DEFAULT_SEED}
+
+
+def test_every_output_option_is_dash_o(capsys):
+    """-o/--output names the output of every command that writes one."""
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    writers = {"render", "clip", "stereo", "pipeline", "demo", "gestures", "train", "generate"}
+    for name in writers:
+        options = {s for a in sub.choices[name]._actions for s in a.option_strings}
+        assert {"-o", "--output"} <= options, name

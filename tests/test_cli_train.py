@@ -276,7 +276,7 @@ def test_classify_gaussian_counts_refused_unknown_labels(tmp_path, capsys, gauss
     other = tmp_path / "other.npz"
     save_trajectories(strokes(per_class=2, seed=5, extra_label="circle"), other)  # circle: down
     png = tmp_path / "confusion.png"
-    status, out, err = run(capsys, "classify", gaussian_model, other, "--confusion-png", png)
+    status, out, err = run(capsys, "classify", gaussian_model, other, "--plot", png)
     assert status == 0 and err == ""
     report = json.loads(out)
     assert report["emission"] == "gaussian" and report["samples"] == 8
@@ -307,9 +307,9 @@ def test_classify_gaussian_without_unknown_labels(capsys, dataset, gaussian_mode
 
 def test_classify_confusion_png_must_be_a_png(tmp_path, capsys, dataset, gaussian_model):
     status, out, err = run(capsys, "classify", gaussian_model, dataset,
-                           "--confusion-png", tmp_path / "name.txt")
+                           "--plot", tmp_path / "name.txt")
     assert status == 2 and out == ""
-    assert_one_line_error(err, "classify", "--confusion-png", "name.txt")
+    assert_one_line_error(err, "classify", "--plot", "name.txt")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -225,3 +225,51 @@ def test_load_rejects_bad_truth(saved):
 def test_load_rejects_non_directory(tmp_path):
     with pytest.raises(ValueError, match="not a clip directory"):
         load_clip(tmp_path / "nowhere")
+
+
+# ------------------------------------------------------------------ footage
+
+
+def make_footage(gesture=None) -> Clip:
+    rng = np.random.default_rng(7)
+    shape = (FRAMES, HEIGHT, 2 * WIDTH)
+    return Clip(fps=25, left=rng.integers(0, 256, size=shape, dtype=np.uint8),
+                right=rng.integers(0, 256, size=shape, dtype=np.uint8), gesture=gesture,
+                source={"left": "left.avi", "right": "right.avi"})
+
+
+@pytest.mark.parametrize("gesture", [None, "stop"])
+def test_footage_round_trip_without_truth(tmp_path, gesture):
+    path = save_clip(make_footage(gesture), tmp_path / "footage")
+    assert sorted(p.name for p in path.iterdir()) == ["clip.json", "left.npy", "right.npy"]
+    meta = json.loads((path / "clip.json").read_text())
+    assert not {"seed", "hand_disparity", "face_disparity", "motion_frames"} & meta.keys()
+    assert ("gesture" in meta) == (gesture is not None)
+    loaded = load_clip(path)
+    assert not loaded.has_truth and loaded.moving is None and loaded.hand_xy is None
+    assert loaded.gesture == gesture and loaded.source == {"left": "left.avi",
+                                                           "right": "right.avi"}
+    assert loaded.metadata() == make_footage(gesture).metadata()
+    assert np.array_equal(loaded.left, make_footage().left)
+
+
+def test_footage_rejects_partial_truth(tmp_path):
+    path = save_clip(make_footage(), tmp_path / "footage")
+    edit_json(path, seed=3)
+    with pytest.raises(ValueError, match=r"clip\.json: missing field 'gesture'"):
+        load_clip(path)
+    edit_json(path, gesture="stop")
+    with pytest.raises(ValueError, match=r"clip\.json: missing field 'hand_disparity'"):
+        load_clip(path)
+    edit_json(path, seed=None, gesture=None)
+    (path / "truth.csv").write_text("frame,hand_x,hand_y,hand_area,moving\n")
+    with pytest.raises(ValueError, match=r"truth\.csv: present, but clip\.json has no truth"):
+        load_clip(path)
+
+
+def test_footage_clip_is_all_or_nothing_in_memory(tmp_path):
+    clip = make_footage()
+    clip.motion_frames = (1, 2)
+    with pytest.raises(ValueError, match="missing field .gesture."):
+        save_clip(clip, tmp_path / "x")
+    assert list(tmp_path.iterdir()) == []

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hdl.census import SparseCensus
-from hdl.hamming import HammingDistance
+from hdl.hamming import HammingDistances
 from hdl.lrcc import LeftRightCheck
 from hdl.median3x3 import Median3x3
 from hdl.row_buffer import RowBuffer
@@ -152,29 +152,44 @@ def test_median3x3(pixel_bits):
 # ------------------------------------------------------------------ Hamming
 
 
-@pytest.mark.parametrize("bits", [4, 12, 24, 60])
-def test_hamming_distance_pipeline(bits):
+@pytest.mark.parametrize("bits, codes", [(4, 1), (12, 3), (24, 1), (46, 7), (60, 2)])
+def test_hamming_distances_pipeline(bits, codes):
     from amaranth.sim import Simulator
-    rng = np.random.default_rng(bits)
-    a = [int(v) for v in rng.integers(0, 1 << min(bits, 62), 200)] + [(1 << bits) - 1, 0]
-    b = [int(v) for v in rng.integers(0, 1 << min(bits, 62), 200)] + [0, 0]
-    dut = HammingDistance(bits)
+    rng = np.random.default_rng(bits * 10 + codes)
+    steps = 200
+    a = [int(v) for v in rng.integers(0, 1 << min(bits, 62), steps)] + [(1 << bits) - 1, 0]
+    b = [[int(v) for v in rng.integers(0, 1 << min(bits, 62), codes)] for _ in range(steps)]
+    b += [[0] * codes, [(1 << bits) - 1] * codes]
+    dut = HammingDistances(bits, codes=codes)
+    width = len(dut.distance[0])
     got = []
 
+    def planes(row):        # bit k of word j: bit j of code k
+        return sum(((code >> j) & 1) << (j * codes + k) for k, code in enumerate(row)
+                   for j in range(bits))
+
     async def tb(ctx):
-        for k in range(len(a) + dut.cycles):
-            if k < len(a):
-                ctx.set(dut.a, a[k])
-                ctx.set(dut.b, b[k])
+        for t in range(len(a) + dut.cycles):
+            if t < len(a):
+                ctx.set(dut.a, a[t])
+                ctx.set(dut.b.as_value(), planes(b[t]))
             await ctx.tick()
-            if k + 1 >= dut.cycles:
-                got.append(ctx.get(dut.distance))
+            if t + 1 >= dut.cycles:
+                out = ctx.get(dut.distance.as_value())
+                got.append([(out >> (k * width)) & ((1 << width) - 1) for k in range(codes)])
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
     sim.add_testbench(tb)
     sim.run()
-    assert got[:len(a)] == [bin(x ^ y).count("1") for x, y in zip(a, b)]
+    assert got[:len(a)] == [[bin(x ^ y).count("1") for y in row] for x, row in zip(a, b)]
+
+
+@pytest.mark.parametrize("bits, cycles", [(1, 1), (3, 1), (6, 2), (12, 2), (24, 3), (48, 3),
+                                          (64, 4)])
+def test_hamming_distances_latency(bits, cycles):
+    """The adder tree's depth (the SHD's and so the pipeline's timing)."""
+    assert HammingDistances(bits, codes=4).cycles == cycles
 
 
 # ------------------------------------------------------------------ SHD

@@ -4,7 +4,7 @@ import colorsys
 import numpy as np
 import pytest
 
-from sim.pictures import disparity_picture, mask_picture, trajectory_picture
+from sim.pictures import LEGEND_HEIGHT, disparity_picture, mask_picture, trajectory_picture
 
 RED, BLUE, GREEN = (255, 60, 60), (80, 140, 255), (60, 255, 60)
 
@@ -54,8 +54,11 @@ def test_trajectory_picture():
     #            no hand  rest      moving right, not flagged; down, then right, flagged
     points = np.array([[0, 0], [10, 20], [60, 20], [60, 80], [100, 80]]) * s
     flag = np.array([False, False, False, True, True])
-    pic = trajectory_picture(background, points, flag)
-    assert pic.shape == (100, 120, 3) and pic.dtype == np.uint8
+    full = trajectory_picture(background, points, flag)
+    assert full.shape == (100 + LEGEND_HEIGHT, 120, 3) and full.dtype == np.uint8
+    pic, legend = full[:100], full[100:]
+    # the legend's keys, one per row: gesture red, other frames blue, start green
+    assert [tuple(legend[10 + 15 * k, 10]) for k in range(3)] == [RED, BLUE, GREEN]
     assert close_to(pic[20, 35], BLUE, 0)          # unflagged step (10, 20) -> (60, 20)
     assert close_to(pic[50, 60], RED, 0)           # flagged step (60, 20) -> (60, 80)
     assert close_to(pic[80, 85], RED, 0)           # flagged step (60, 80) -> (100, 80)
@@ -75,6 +78,43 @@ def test_trajectory_picture():
 def test_trajectory_picture_frac_bits_and_no_gesture():
     background = np.zeros((40, 40), np.uint8)
     points = np.array([[5, 5], [30, 5]]) * 16
-    pic = trajectory_picture(background, points, [False, False], frac_bits=4)
+    pic = trajectory_picture(background, points, [False, False], frac_bits=4)[:40]
     assert close_to(pic[5, 20], BLUE, 0)
     assert not np.all(pic == GREEN, axis=-1).any() and not np.all(pic == RED, axis=-1).any()
+
+
+def test_colour_bar_runs_from_far_to_near_with_its_labels():
+    from sim.pictures import colour_bar
+    bar = colour_bar(200, 48)
+    assert bar.shape == (200, 70, 3) and bar.dtype == np.uint8
+    ramp = bar[18:167, 10].astype(int)           # the ramp column, top to bottom
+    top, bottom = ramp[0], ramp[-1]
+    assert top[0] > 2 * top[2]                   # the largest disparity (near) is red
+    assert bottom[2] > bottom[0]                 # small disparities (far) are blue
+    assert (bar[:, 27:] > 200).any()             # white tick labels to the right
+
+
+def test_disparity_preview_puts_the_bar_beside_the_map():
+    from sim.pictures import disparity_preview
+    disp = np.tile(np.arange(64) % 48, (150, 1)).astype(np.uint16)
+    pic = disparity_preview(disp, 48)
+    assert pic.shape == (150, 64 + 70, 3)
+    assert np.array_equal(pic[:, :64], disparity_picture(disp, 48))
+
+
+def test_stage_sheet_labels_every_panel_and_marks_the_centroid():
+    from sim.pictures import stage_sheet
+    grey = np.full((40, 60), 90, np.uint8)
+    panels = {"left camera": grey, "right camera": grey, "disparity": np.full((40, 60), 20),
+              "skin": np.zeros((40, 60), bool), "band": np.zeros((40, 60), bool),
+              "opening": np.zeros((40, 60), bool)}
+    flagged = stage_sheet(7, panels, centroid=(30.0, 20.0), flag=True)
+    still = stage_sheet(7, panels, centroid=(30.0, 20.0), flag=False)
+    empty = stage_sheet(7, panels, centroid=None)
+    assert flagged.shape == still.shape == empty.shape and flagged.shape[2] == 3
+    # the centroid cross is red on a flagged frame, green otherwise, absent without a hand
+    assert (flagged == RED).all(axis=-1).sum() > 20
+    assert (still == GREEN).all(axis=-1).sum() > 20
+    assert not (empty == RED).all(axis=-1).any() and not (empty == GREEN).all(axis=-1).any()
+    # title and captions are drawn (white text on the dark background)
+    assert (flagged[:30] > 200).all(axis=-1).any()

@@ -12,7 +12,7 @@ from recognition.features import feature_sets, sequences
 from recognition.non_gestures import (as_centroid_tracks, random_walks, scribbles,
                                       wandering_hands)
 from recognition.recogniser import Recogniser
-from stereogest.commands.demo import DEFAULT_MODEL
+from stereogest.commands.pipeline import shipped_model_path
 from sw_hps.hmm import load_models
 from sw_hps.robot import GESTURE_NAMES
 
@@ -21,7 +21,7 @@ MODELS = Path(sw_hps.__file__).parent / "models"
 
 @pytest.fixture(scope="module")
 def default_models():
-    return load_models(MODELS / DEFAULT_MODEL)
+    return load_models(shipped_model_path())
 
 
 @pytest.fixture(scope="module")

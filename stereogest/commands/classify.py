@@ -31,8 +31,9 @@ def add_arguments(p):
                    help="pen front end with N points, or 'camera' (default: as the model "
                         "was trained, from its meta; gaussian models always compute their "
                         "features on the points they were trained with)")
-    p.add_argument("--confusion-png", metavar="PNG", default=None,
-                   help="also draw the confusion matrix to this PNG")
+    p.add_argument("--plot", "--confusion-png", dest="confusion_png", metavar="PNG",
+                   default=None,
+                   help="also draw the confusion matrix, with the class names, to this PNG")
 
 
 def _front_end(option, meta) -> int | None:
@@ -69,8 +70,10 @@ def run(args) -> int:
     models = load_models(args.model)
     resample = _front_end(args.resample, models.meta)
     if args.confusion_png is not None and not str(args.confusion_png).endswith(".png"):
-        raise ValueError(f"--confusion-png must name a .png file, got {args.confusion_png!r}")
+        raise ValueError(f"--plot must name a .png file, got {args.confusion_png!r}")
     data = load_trajectories(args.data)
+    if len(data) == 0:
+        raise ValueError(f"{args.data}: holds no trajectories")
     if models.emission == "gaussian":
         samples = feature_sets(data, models.resample, camera=resample is None)
     else:

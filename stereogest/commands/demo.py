@@ -22,8 +22,6 @@ NAME = "demo"
 #: spotting window (K = 8) to settle; the renderer's own choice (about a
 #: second) adds some 20 frames, a minute of the Verilated system.
 DEFAULT_PRE_REST = 10
-#: The trained model shipped with the board application (``make model`` rebuilds it).
-DEFAULT_MODEL = "gestures7.json"
 HELP = "render a gesture clip and run it from camera pins to robot command (the main job)"
 
 
@@ -32,7 +30,13 @@ def add_arguments(p):
     from sim.gesture_shapes import GESTURE_NAMES
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
-    p.add_argument("--seed", type=int, default=1, help="scene and timing seed")
+    p.add_argument("--clip", metavar="CLIP", default=None,
+                   help="run this clip (from 'stereogest render' or 'stereogest clip', your "
+                        "own footage) instead of rendering one; --gesture, --seed, "
+                        "--pre-rest, --width and --height then do not apply")
+    from stereogest.commands import DEFAULT_SEED
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                   help="scene and timing seed (>= 0)")
     from sim.render import MAX_SEGMENT_FRAMES
     p.add_argument("--pre-rest", type=int, default=DEFAULT_PRE_REST, metavar="FRAMES",
                    help=f"frames of rest before the gesture, 0-{MAX_SEGMENT_FRAMES} (default "
@@ -67,32 +71,54 @@ def run(args) -> int:
     from sim.clip import save_clip
     from sim.images import write_png
     from sim.model.pipeline import PipelineParams, run_clip
-    from sim.render import MAX_SEGMENT_FRAMES, render_clip
-    from stereogest.commands.pipeline import parse_frames, progress_printer, write_outputs
-    from sw_hps.app import run_on_trajectory
+    from sim.footage import check_option
+    from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE, render_clip
+    from stereogest.commands.pipeline import (STALE, parse_frames, progress_printer, recognise,
+                                              shipped_model_path, write_outputs)
     from sw_hps.hmm import load_models
 
-    import sw_hps
+    # Every option checked before anything is created or rendered.
+    if args.threads is not None:
+        check_option("--threads", args.threads, 1, 64)
+    if args.clip is None:
+        check_option("--seed", args.seed, 0, 2 ** 63 - 1)
+        for option, value, (lo, hi) in (("--width", args.width, WIDTH_RANGE),
+                                        ("--height", args.height, HEIGHT_RANGE)):
+            check_option(option, value, lo, hi)
+            if value % 2:
+                raise ValueError(f"{option} must be even, in [{lo}, {hi}], got {value}")
     if not -1 <= args.pre_rest <= MAX_SEGMENT_FRAMES:
         raise ValueError(f"--pre-rest must be in -1..{MAX_SEGMENT_FRAMES}, got "
                          f"{args.pre_rest}")
     say = _say(args.quiet)
-    models = load_models(args.model or Path(sw_hps.__file__).parent / "models" / DEFAULT_MODEL)
-    params = PipelineParams.for_frame(args.width)
-    params.validate(args.width, args.height)
+    models = load_models(args.model or shipped_model_path())
+    if args.clip is not None:
+        from sim.clip import load_clip
+        clip = load_clip(args.clip)
+        width, height = clip.width, clip.height
+    else:
+        width, height = args.width, args.height
+    params = PipelineParams.for_frame(width)
+    params.validate(width, height)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    clip = render_clip(args.gesture, args.seed, args.width, args.height,
-                       n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
-    clip_dir = save_clip(clip, out / "clip")
-    print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
-          f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
-          f"{clip.motion_frames[1]} -> {clip_dir}")
+    if args.clip is not None:
+        motion = (f", motion in frames {clip.motion_frames[0]}-{clip.motion_frames[1]}"
+                  if clip.has_truth else "")
+        print(f"clip {args.clip}: {clip.frames} frames of {clip.width}x{clip.height}"
+              + (f", labelled {clip.gesture}" if clip.gesture else "") + motion)
+    else:
+        clip = render_clip(args.gesture, args.seed, width, height,
+                           n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
+        clip_dir = save_clip(clip, out / "clip")
+        print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
+              f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
+              f"{clip.motion_frames[1]} -> {clip_dir}")
     print(f"spotting: Tm = {params.spot_threshold} px (thesis 30 at 640 wide, scaled to the "
           f"width), end after {params.spot_hold} still frames")
 
-    chosen = set(parse_frames(None, clip.frames, tuple(clip.motion_frames)))
+    chosen = set(parse_frames(None, clip.frames, clip.motion_frames))
     say("golden model:")
     if args.backend == "model":
         trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
@@ -103,23 +129,24 @@ def run(args) -> int:
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
             model_progress=progress_printer(args.quiet), progress=say)
     pictures = out / "pipeline"
+    for pattern in STALE:                # a reused folder: no old picture passes for new
+        for old in pictures.glob(pattern):
+            old.unlink()
     summary = write_outputs(pictures, clip, trajectory, kept, params,
                             time.perf_counter() - start)
     flagged = trajectory.flag.nonzero()[0]
     span = f"{flagged[0]}-{flagged[-1]}" if flagged.size else "none"
-    print(f"golden model: gesture flagged in frames {span} (truth: motion "
-          f"{clip.motion_frames[0]}-{clip.motion_frames[1]}); orientation symbols "
+    truth = (f" (truth: motion {clip.motion_frames[0]}-{clip.motion_frames[1]})"
+             if clip.has_truth else "")
+    print(f"golden model: gesture flagged in frames {span}{truth}; orientation symbols "
           f"(0=right 2=up 4=left 6=down): {summary['symbols'] or '(none)'}")
     print(f"stage pictures and trajectory.csv in {pictures}")
-    report = {"gesture": args.gesture, "frames": clip.frames, "width": clip.width,
+    report = {"gesture": clip.gesture, "frames": clip.frames, "width": clip.width,
               "height": clip.height, "backend": args.backend,
               "flagged": int(trajectory.flag.sum()), "symbols": summary["symbols"]}
 
     if args.backend == "model":
-        board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
-                                  trajectory.flag, pixels=False)
-        recognised = board.recognised[-1] if board.recognised else None
-        telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
+        recognised, telegram = recognise(models, trajectory)
         print(f"board application (simulated FIFO): recognised {recognised or 'nothing'}"
               + (f", NXT telegram {telegram}" if telegram else ""))
     else:

@@ -5,6 +5,7 @@ pixels left invalid (0)."""
 from __future__ import annotations
 
 import json
+import math
 
 NAME = "eval-stereo"
 HELP = "score a disparity PNG against ground truth (JSON: pct_good, pct_invalid)"
@@ -25,13 +26,21 @@ def run(args) -> int:
     from sim.evaluate import score_disparity
     from sim.images import read_array
 
+    if not (math.isfinite(args.gt_scale) and args.gt_scale > 0):
+        raise ValueError(f"--gt-scale must be a positive number, got {args.gt_scale}")
+    if not (math.isfinite(args.max_error) and args.max_error >= 0):
+        raise ValueError(f"--max-error must be a finite number >= 0, got {args.max_error}")
     disp = read_array(args.disparity)
     gt = read_array(args.ground_truth)
+    for name, path, image in (("DISP.png", args.disparity, disp),
+                              ("GT.png", args.ground_truth, gt)):
+        if image.ndim != 2:
+            raise ValueError(f"{name} ({path}) must be a single-channel disparity image, got "
+                             f"{image.shape[2] if image.ndim == 3 else image.ndim} channels "
+                             f"(a colour picture?)")
     if disp.shape != gt.shape:
         raise ValueError(f"DISP.png is {disp.shape[1]}x{disp.shape[0]} but GT.png is "
                          f"{gt.shape[1]}x{gt.shape[0]}")
-    if args.max_error < 0:
-        raise ValueError(f"--max-error must be >= 0, got {args.max_error}")
     print(json.dumps(score_disparity(disp, gt, args.gt_scale, max_error=args.max_error,
                                      exclude_left=args.exclude_left)))
     return 0

@@ -15,8 +15,9 @@ HELP = "write the Quartus / Platform Designer bundle for the DE1-SoC"
 
 
 def add_arguments(p):
-    p.add_argument("--out", metavar="DIR", required=True,
-                   help="bundle directory (new, empty or a previous bundle)")
+    p.add_argument("-o", "--output", "--out", dest="out", metavar="DIR", required=True,
+                   help="bundle directory (new, empty or a previous bundle); --out is the "
+                        "older spelling")
     p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
     p.add_argument("--height", type=int, default=480, help="frame height in pixels")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

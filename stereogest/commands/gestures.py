@@ -12,7 +12,9 @@ trajectory), amplitude, dropped, fps and image_size.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+import json
+
+from stereogest.commands import DEFAULT_SEED, check_output_file
 
 NAME = "gestures"
 HELP = "write a synthetic corpus of gesture trajectories (hand centroids per frame)"
@@ -30,8 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="trajectories per gesture (1..100000); the people take turns")
     parser.add_argument("--people", type=int, default=3, metavar="P",
                         help="number of people, each with their own style (1..1000)")
-    parser.add_argument("--seed", type=int, default=0, metavar="S",
-                        help="random seed (>= 0, default 0); the same arguments give the same file")
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
+                        help="random seed (>= 0); the same arguments give the same file")
     parser.add_argument("--width", type=int, default=640,
                         help="image width in pixels (96..4096)")
     parser.add_argument("--height", type=int, default=480,
@@ -39,6 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the durations scale with it (15-30 rest "
                              "and 40-80 motion frames at 30 fps)")
+    parser.add_argument("--json", action="store_true",
+                        help="also print the result as a JSON last line")
 
 
 def _option_message(exc: ValueError) -> str:
@@ -59,11 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from recognition.datasets import save_trajectories
     from sim.gesture_shapes import GESTURE_NAMES
 
-    output = Path(args.output)
-    if not output.parent.is_dir():
-        raise ValueError(f"--output: directory {output.parent} does not exist")
-    if output.is_dir():
-        raise ValueError(f"--output: {output} is a directory, expected a file name")
+    output = check_output_file(args.output)
     try:
         corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,
                                  args.height, args.fps)
@@ -80,4 +80,9 @@ def run(args: argparse.Namespace) -> int:
           f"{args.fps} fps): {lengths.min()}-{lengths.max()} frames, motion "
           f"{motion.min()}-{motion.max()} frames, {int(corpus.dropped.sum())} frames dropped "
           f"-> {output}")
+    if args.json:
+        print(json.dumps({"output": str(output), "trajectories": len(data),
+                          "per_class": args.per_class, "people": args.people,
+                          "seed": args.seed, "frames": [int(lengths.min()),
+                                                        int(lengths.max())]}))
     return 0

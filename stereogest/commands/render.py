@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 
 from sim.gesture_shapes import GESTURE_NAMES
+from stereogest.commands import DEFAULT_SEED
 
 NAME = "render"
 HELP = "render a synthetic stereo clip of one gesture"
@@ -25,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "edge and back, left = towards its right edge and back, "
                              "rotate-right / rotate-left = a loop on the image's left / "
                              "right side, stop = a downward-pointing triangle")
-    parser.add_argument("--seed", type=int, required=True, default=argparse.SUPPRESS,
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED,
                         help="random seed (>= 0): the person and room depend on it, the "
                              "timing, amplitude and start position on it and the gesture")
     parser.add_argument("-o", "--output", required=True, metavar="CLIP",
@@ -38,6 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the rest and motion durations scale "
                              "with it (15-30 rest and 40-80 motion frames at 30 fps)")
+    parser.add_argument("--json", action="store_true",
+                        help="also print the result as a JSON last line")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,4 +54,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {first}-{last} "
           f"({last - first + 1} frames), written to {path}")
+    if args.json:
+        import json
+        print(json.dumps({"output": str(path), "gesture": args.gesture, "seed": args.seed,
+                          "frames": clip.frames, "width": clip.width, "height": clip.height,
+                          "fps": clip.fps, "motion_frames": [first, last]}))
     return 0

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from pathlib import Path
 
 NAME = "stereo"
 BACKENDS = ("model", "amaranth", "verilator")
@@ -20,7 +21,9 @@ def add_arguments(p):
     p.add_argument("left", metavar="LEFT", help="left image (PNG; colour is converted to BT.601 luma)")
     p.add_argument("right", metavar="RIGHT", help="right image, same size as LEFT")
     p.add_argument("-o", "--output", metavar="DISP.png", required=True,
-                   help="output 16-bit PNG: disparity of each left pixel, 0 = invalid")
+                   help="output 16-bit PNG: disparity of each left pixel, 0 = invalid "
+                        "(it looks black in an image viewer: see DISP_colour.png beside it, "
+                        "colour-mapped with a colour bar in pixels of disparity)")
     p.add_argument("--census-window", type=int, default=7, metavar="WC",
                    help="Wc: side of the 50%% sparse census window, odd, 3..11")
     p.add_argument("--hamming-window", type=int, default=29, metavar="WH",
@@ -74,14 +77,24 @@ def run(args) -> int:
     else:
         disp, extra = _run_hardware(backend, left, right, args)
     seconds = time.perf_counter() - start
+    from sim.pictures import disparity_preview
+    preview = preview_path(args.output)
     write_png(args.output, disp, bits=16)
-    report = {"output": str(args.output), "width": disp.shape[1], "height": disp.shape[0],
+    write_png(preview, disparity_preview(disp, args.max_disparity), bits=8)
+    report = {"output": str(args.output), "preview": str(preview),
+              "width": disp.shape[1], "height": disp.shape[0],
               "pct_invalid": round(100.0 * float((disp == 0).mean()), 3),
               "seconds": round(seconds, 3)}
     if backend != "model":
         report.update(backend=backend, **extra)
     print(json.dumps(report))
     return 0
+
+
+def preview_path(output) -> Path:
+    """The colour-mapped preview written beside the 16-bit map: DISP_colour.png."""
+    output = Path(output)
+    return output.with_name(f"{output.stem}_colour.png")
 
 
 def _run_hardware(backend, left, right, args):

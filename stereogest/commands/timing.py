@@ -16,6 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from stereogest.commands import DEFAULT_SEED
+
 NAME = "timing"
 HELP = "place and route on an ECP5 (nextpnr) and report Fmax per block and clock"
 
@@ -41,7 +43,7 @@ def add_arguments(p):
                    help="disparity range D")
     p.add_argument("--opening-size", type=int, default=d.opening_size, metavar="W",
                    help="opening structuring element size W (odd)")
-    p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (>= 1)")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="nextpnr placer seed (>= 1)")
     p.add_argument("--router", choices=("router1", "router2"), default="router2",
                    help="nextpnr router")
     p.add_argument("--timeout", type=float, default=None, metavar="S",

@@ -26,6 +26,8 @@ import sys
 import time
 from pathlib import Path
 
+from stereogest.commands import DEFAULT_SEED, check_output_file
+
 NAME = "train"
 HELP = "train the gesture HMMs (optionally choosing the number of states by cross-validation)"
 
@@ -94,8 +96,8 @@ def add_arguments(p):
                    help="run the cross-validation on this Dask scheduler (tcp://host:8786)")
     p.add_argument("--jobs", type=int, default=None, metavar="J",
                    help="local worker processes for the cross-validation (default: CPUs)")
-    p.add_argument("--seed", type=int, default=0, metavar="S",
-                   help="seed of the fold shuffle (default 0)")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
+                   help="seed of the fold shuffle (>= 0)")
     p.add_argument("--report", metavar="PREFIX", default=None,
                    help="cross-validation report PREFIX.json and PREFIX.png "
                         "(default: MODEL without .json, plus -cv)")
@@ -200,6 +202,9 @@ def _check_options(args) -> list[int] | None:
                          f"the initial model needs T/N >= 1, got {most} states")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    check_output_file(args.output)
+    if args.report is not None:
+        check_output_file(args.report, "--report")
     return cv_states
 
 
@@ -235,6 +240,11 @@ def run(args) -> int:
     start = time.perf_counter()
     data_path = Path(args.data)
     data = load_trajectories(data_path)
+    if len(data) == 0:
+        raise ValueError(f"{data_path}: holds no trajectories")
+    if len(data.class_names) < 2:
+        raise ValueError(f"{data_path}: holds one class ({', '.join(data.class_names)}); a "
+                         f"recogniser needs at least 2")
     if args.emission == "gaussian":
         return _run_gaussian(args, data, data_path, say, start)
     groups = _groups(data_path, args.groups, data) if args.groups is not None else None

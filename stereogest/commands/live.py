@@ -1,0 +1,126 @@
+"""Watch the system work: the golden model and the recogniser run frame by
+frame on two webcams (camera indices), two video files or a clip, and a local
+page (127.0.0.1 only) shows both cameras, the six stages of thesis Table 22
+(the board's VGA choices), the trajectory and the last recognised gesture with
+its NXT telegram, refreshed as frames arrive. Open the printed address in a
+browser; Ctrl-C stops. 320x240 keeps up with 15 frames/s or more on a 2-core
+machine (benchmarks/bench_live.py)."""
+from __future__ import annotations
+
+import sys
+import threading
+
+NAME = "live"
+HELP = "live view: golden model and recogniser on webcams, videos or a clip, in a browser"
+
+
+def add_arguments(p):
+    p.add_argument("--left", metavar="SOURCE", default=None,
+                   help="left camera: a camera index (0, 1, ...), a video file, an image "
+                        "folder or a glob pattern")
+    p.add_argument("--right", metavar="SOURCE", default=None, help="right camera, as --left")
+    p.add_argument("--clip", metavar="CLIP", default=None,
+                   help="replay a clip instead ('stereogest render' or 'stereogest clip')")
+    p.add_argument("--width", type=int, default=320,
+                   help="frame width for --left/--right (even, 96..4096)")
+    p.add_argument("--height", type=int, default=240,
+                   help="frame height for --left/--right (64..4096)")
+    p.add_argument("--port", type=int, default=8642,
+                   help="port of the page on 127.0.0.1 (0..65535; 0: any free port)")
+    p.add_argument("--fps", type=int, default=None,
+                   help="replay rate of a clip or videos, 1..1000 (default: their own; "
+                        "cameras run at theirs)")
+    p.add_argument("--fast", action="store_true",
+                   help="replay a clip or videos as fast as the model goes")
+    p.add_argument("--frames", type=int, default=None,
+                   help="stop after this many frame pairs and exit (1..1800)")
+    p.add_argument("--model", metavar="MODEL.json", default=None,
+                   help="HMM model file (default: the one shipped in sw_hps/models)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="worker threads for the stereo cost stage (default: CPUs, at most 4)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def run(args) -> int:
+    import time
+
+    from sim.footage import MAX_FRAMES, StereoSource, check_option
+    from sim.model.pipeline import PipelineParams
+    from stereogest.commands.pipeline import shipped_model_path
+    from stereogest.live import LiveServer, LiveSession, run_source
+    from sw_hps.hmm import load_models
+
+    if (args.clip is None) == (args.left is None and args.right is None) or \
+            (args.clip is None and (args.left is None or args.right is None)):
+        raise ValueError("give either --clip CLIP or both --left and --right")
+    if args.fps is not None:
+        check_option("--fps", args.fps, 1, 1000)
+    if args.frames is not None:
+        check_option("--frames", args.frames, 1, MAX_FRAMES)
+    check_option("--port", args.port, 0, 65535)
+    models = load_models(args.model or shipped_model_path())
+    if args.clip is not None:
+        from sim.clip import load_clip
+        clip = load_clip(args.clip)
+        width, height, native_fps = clip.width, clip.height, clip.fps
+        count = clip.frames if args.frames is None else min(args.frames, clip.frames)
+        pairs = ((clip.left[n], clip.right[n]) for n in range(count))
+        source, closer = f"clip {args.clip}", None
+    else:
+        closer = StereoSource(args.left, args.right, width=args.width, height=args.height,
+                              frames=args.frames)
+        width, height, pairs = args.width, args.height, closer
+        native_fps = None if closer.camera else (closer.fps or 30)
+        source = f"{closer.sources[0].kind} and {closer.sources[1].kind}"
+    params = PipelineParams.for_frame(width)
+    try:
+        params.validate(width, height)
+        session = LiveSession(params, models, threads=args.threads)
+        server = LiveServer(session, width, height, args.port)
+    except BaseException:
+        if closer is not None:
+            closer.close()
+        raise
+    print(f"live view of {source} ({width}x{height}) on {server.url} (Ctrl-C stops)",
+          flush=True)
+    fps = None if args.fast else (args.fps or native_fps)
+
+    def progress(s):
+        if not args.quiet and s.frames % 30 == 0:
+            st = s.state
+            print(f"  frame {st['frame']}, {st['fps']} frames/s, last recognised "
+                  f"{st['recognised'] or 'nothing'}", file=sys.stderr, flush=True)
+
+    stop = threading.Event()
+    worker_error = []
+
+    def work():
+        try:
+            run_source(session, pairs, fps=fps, stop=stop, on_frame=progress)
+        except ValueError as exc:
+            worker_error.append(exc)
+
+    worker = threading.Thread(target=work, daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.2)
+        if worker_error:
+            raise worker_error[0]
+        state, _ = session.snapshot()
+        print(f"{session.frames} frame pairs; last recognised: "
+              f"{state['recognised'] or 'none'}"
+              + (f" (NXT telegram {state['telegram']})" if state["telegram"] else ""),
+              flush=True)
+        if args.frames is None:
+            print("the source ended; the page shows its last frame (Ctrl-C stops)", flush=True)
+            while True:
+                time.sleep(1)
+    except KeyboardInterrupt:
+        stop.set()
+        worker.join(5)
+    finally:
+        server.close()
+        if closer is not None:
+            closer.close()
+    return 0

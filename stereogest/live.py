@@ -1,0 +1,265 @@
+"""The live view: the golden model and the recogniser frame by frame on two
+cameras, two video files or a clip, shown on a local web page.
+
+:class:`LiveSession` reads frame pairs (:mod:`sim.footage` sources, or a clip),
+runs each through every pixel stage (:func:`sim.model.pipeline.process_frame`),
+tracks the centroid (moving average, spotting, orientation symbols: the
+pipeline's :func:`~sim.model.pipeline.track` over the frames so far, which is
+causal) and, when a gesture ends, runs the board application's HMMs on it
+(:func:`sw_hps.app.run_on_trajectory`) for the gesture's name and its NXT
+telegram. :class:`LiveServer` serves the page on 127.0.0.1 only: the two
+cameras, the six stages of thesis Table 22, the trajectory and the last
+recognised gesture, refreshed as frames arrive (the page polls
+``/state.json`` and reloads the pictures of a new frame). opencv-python-headless
+has no windows, hence a page.
+"""
+from __future__ import annotations
+
+import json
+import threading
+import time
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import numpy as np
+
+__all__ = ["LiveSession", "LiveServer", "PANELS", "HISTORY"]
+
+#: The page's pictures: the cameras as they come, then thesis Table 22's six
+#: stages (SW[9:7] of the board's VGA output), then the trajectory.
+PANELS = ("left camera", "right camera", "left", "right", "disparity", "skin", "band",
+          "opening", "trajectory")
+#: Frames of history the tracker and the recogniser look back over.
+HISTORY = 900
+
+
+def _slug(name: str) -> str:
+    return name.replace(" ", "-")
+
+
+class LiveSession:
+    """Frame-by-frame golden model and recogniser.
+
+    Parameters
+    ----------
+    params : sim.model.pipeline.PipelineParams
+    models : sw_hps.hmm.GestureModels
+    threads : int, optional
+        Worker threads of the stereo cost stage.
+    """
+
+    def __init__(self, params, models, *, threads: int | None = None):
+        self.params, self.models, self.threads = params, models, threads
+        self.lock = threading.Lock()
+        self.frames = 0
+        self.recognised: list[dict] = []
+        self.state = {"frame": -1, "fps": 0.0, "centroid": None, "flag": False,
+                      "recognised": None, "telegram": None, "recognised_at": None,
+                      "history": [], "done": False, "error": None}
+        self.pictures: dict[str, bytes] = {}
+        self._cents: list = []
+        self._areas: list = []
+        self._first = 0            # frame number of _cents[0]
+        self._times: list = []
+        self._was_flagged = False
+
+    def step(self, left_bytes, right_bytes) -> dict:
+        """Process one frame pair (4:2:2 byte streams); returns the new state."""
+        import cv2
+
+        from sim.footage import frame_to_bgr
+        from sim.model.pipeline import process_frame, track, video_picture
+        from sim.pictures import disparity_picture, trajectory_picture
+        p = self.params
+        stages = process_frame(left_bytes, right_bytes, p, threads=self.threads)
+        self._cents.append((stages.centroid.x, stages.centroid.y))
+        self._areas.append(stages.centroid.area)
+        if len(self._cents) > HISTORY:
+            drop = len(self._cents) - HISTORY
+            del self._cents[:drop], self._areas[:drop]
+            self._first += drop
+        n = self.frames
+        traj = track(np.array(self._cents, np.int64), np.array(self._areas, np.int64), p)
+        flag = bool(traj.flag[-1])
+        ended = self._was_flagged and not flag
+        self._was_flagged = flag
+        if ended:
+            self._recognise(traj, n)
+        pictures = {"left camera": frame_to_bgr(left_bytes),
+                    "right camera": frame_to_bgr(right_bytes)}
+        bits = max(1, (p.max_disparity - 1).bit_length())
+        for stage in ("left", "right", "skin", "band", "opening"):
+            pictures[stage] = video_picture(stages, stage, bits)
+        pictures["disparity"] = disparity_picture(stages.disparity, p.max_disparity)[:, :, ::-1]
+        pictures["trajectory"] = trajectory_picture(stages.left, traj.smoothed, traj.flag,
+                                                    p.frac_bits)[:, :, ::-1]
+        encoded = {name: cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 85])[1]
+                   .tobytes() for name, image in pictures.items()}
+        now = time.perf_counter()
+        self._times = [t for t in self._times if now - t < 2.0] + [now]
+        scale = 1 << p.frac_bits
+        x, y = traj.smoothed[-1] / scale
+        with self.lock:
+            self.frames += 1
+            self.pictures = encoded
+            self.state.update(
+                frame=n, flag=flag, area=int(stages.centroid.area),
+                centroid=[round(float(x), 1), round(float(y), 1)] if stages.centroid.area
+                else None,
+                fps=round((len(self._times) - 1) / max(1e-9, now - self._times[0]), 1)
+                if len(self._times) > 1 else 0.0)
+            return dict(self.state)
+
+    def _recognise(self, traj, n: int) -> None:
+        """The board application on the frames so far (a simulated FIFO): the
+        gesture that just ended."""
+        from sw_hps.app import run_on_trajectory
+        board = run_on_trajectory(self.models, traj.smoothed[:, 0], traj.smoothed[:, 1],
+                                  traj.flag, pixels=False)
+        name = board.recognised[-1] if board.recognised else None
+        telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
+        with self.lock:
+            self.state.update(recognised=name, telegram=telegram, recognised_at=n)
+            self.state["history"] = (self.state["history"] + [
+                {"frame": n, "recognised": name, "telegram": telegram}])[-10:]
+
+    def snapshot(self) -> tuple[dict, dict]:
+        with self.lock:
+            return dict(self.state), dict(self.pictures)
+
+    def finish(self, error: str | None = None) -> None:
+        with self.lock:
+            self.state.update(done=True, error=error)
+
+
+def run_source(session: LiveSession, pairs, *, fps: float | None = None,
+               stop: threading.Event | None = None, on_frame=None) -> None:
+    """Feed ``pairs`` (an iterable of 4:2:2 frame pairs) to ``session``, at most
+    ``fps`` pairs per second (None: as fast as the model goes), until
+    ``stop`` is set; the session is marked done (with the error, if any)."""
+    error = None
+    try:
+        period = 1.0 / fps if fps else 0.0
+        due = time.perf_counter()
+        for left, right in pairs:
+            if stop is not None and stop.is_set():
+                break
+            session.step(left, right)
+            if on_frame is not None:
+                on_frame(session)
+            if period:
+                due += period
+                pause = due - time.perf_counter()
+                if pause > 0:
+                    time.sleep(pause)
+                else:
+                    due = time.perf_counter()
+    except (ValueError, OSError) as exc:     # a source ends badly: say so on the page
+        error = str(exc)
+    finally:
+        session.finish(error)
+    if error is not None:
+        raise ValueError(error)
+
+
+_PAGE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>stereogest live</title>
+<style>
+body {{ background: #181818; color: #eee; font: 14px sans-serif; margin: 12px; }}
+h1 {{ font-size: 18px; margin: 0 0 8px 0; }}
+#status {{ font-size: 16px; margin-bottom: 10px; }}
+#gesture {{ font-size: 22px; color: #ff6a4d; font-weight: bold; }}
+.grid {{ display: grid; grid-template-columns: repeat(3, {w}px); gap: 10px; }}
+figure {{ margin: 0; }} figcaption {{ margin-bottom: 3px; }}
+img {{ width: {w}px; height: {h}px; background: #333; display: block; }}
+#panel-trajectory {{ height: auto; }}
+</style></head><body>
+<h1>stereogest live: golden model and recogniser, frame by frame</h1>
+<div id="status">frame <span id="frame">-</span> &middot; <span id="fps">0</span> frames/s
+&middot; <span id="flag">no gesture</span> &middot; centroid <span id="centroid">-</span></div>
+<div>last recognised gesture: <span id="gesture">none yet</span>
+<span id="telegram"></span></div><p></p>
+<div class="grid">
+{figures}
+</div>
+<script>
+let shown = -1;
+async function tick() {{
+  try {{
+    const r = await fetch('/state.json', {{cache: 'no-store'}});
+    const s = await r.json();
+    if (s.frame !== shown && s.frame >= 0) {{
+      shown = s.frame;
+      for (const img of document.querySelectorAll('img[data-panel]'))
+        img.src = '/panel/' + img.dataset.panel + '.jpg?frame=' + s.frame;
+    }}
+    document.getElementById('frame').textContent = s.frame;
+    document.getElementById('fps').textContent = s.fps;
+    document.getElementById('flag').textContent = s.flag ? 'GESTURE' : 'no gesture';
+    document.getElementById('centroid').textContent =
+      s.centroid ? '(' + s.centroid[0] + ', ' + s.centroid[1] + ')' : '-';
+    if (s.recognised_at !== null) {{
+      document.getElementById('gesture').textContent = s.recognised || 'none';
+      document.getElementById('telegram').textContent =
+        s.telegram ? ' (NXT telegram ' + s.telegram + ', frame ' + s.recognised_at + ')' : '';
+    }}
+    if (s.error) document.getElementById('status').textContent = 'stopped: ' + s.error;
+  }} catch (e) {{}}
+  setTimeout(tick, 100);
+}}
+tick();
+</script></body></html>
+"""
+
+
+class LiveServer:
+    """The page of a :class:`LiveSession` on ``127.0.0.1:port`` (0: any free
+    port; :attr:`port` says which), served from a background thread."""
+
+    def __init__(self, session: LiveSession, width: int, height: int, port: int = 8642):
+        from sim.footage import check_option
+        check_option("--port", port, 0, 65535)
+        page = _PAGE.format(w=width, h=height, figures="\n".join(
+            f'<figure><figcaption>{name}</figcaption><img id="panel-{_slug(name)}" '
+            f'data-panel="{_slug(name)}" alt="{name}"></figure>' for name in PANELS)).encode()
+        names = {_slug(name): name for name in PANELS}
+
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self):                  # noqa: N802 (the http.server API)
+                path = self.path.split("?", 1)[0]
+                state, pictures = session.snapshot()
+                if path in ("/", "/index.html"):
+                    return self._send(page, "text/html; charset=utf-8")
+                if path == "/state.json":
+                    return self._send(json.dumps(state).encode(), "application/json")
+                if path.startswith("/panel/") and path.endswith(".jpg"):
+                    name = names.get(path[len("/panel/"):-len(".jpg")])
+                    if name is not None and name in pictures:
+                        return self._send(pictures[name], "image/jpeg")
+                self.send_error(HTTPStatus.NOT_FOUND)
+
+            def _send(self, body: bytes, kind: str):
+                self.send_response(HTTPStatus.OK)
+                self.send_header("Content-Type", kind)
+                self.send_header("Content-Length", str(len(body)))
+                self.send_header("Cache-Control", "no-store")
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args):    # quiet: the command prints its own lines
+                pass
+
+        try:
+            self.httpd = ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        except OSError as exc:
+            raise ValueError(f"--port: cannot listen on 127.0.0.1:{port} ({exc.strerror})") \
+                from None
+        self.httpd.daemon_threads = True
+        self.port = self.httpd.server_address[1]
+        self.url = f"http://127.0.0.1:{self.port}/"
+        self._thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self.httpd.shutdown()
+        self.httpd.server_close()

@@ -1,0 +1,360 @@
+"""The bad-input corpus (issue 15): every subcommand and the board application
+given bad options, bad values, missing, wrong and broken files and unwritable
+outputs. Each case asserts one line on stderr naming the option (or file)
+with no traceback, the exit status, and that nothing is left behind."""
+from __future__ import annotations
+
+import itertools
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stereogest import cli
+
+DATA = Path(__file__).resolve().parent.parent / "data"
+TSUKUBA = DATA / "middlebury" / "tsukuba"
+MODEL = Path(__file__).resolve().parent.parent / "sw_hps" / "models" / "gestures7.json"
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """Files the cases name: a small clip, a dataset, and broken look-alikes."""
+    from recognition.datasets import load_trajectories, save_trajectories
+    from sim.clip import save_clip
+    from sim.render import render_clip
+    root = tmp_path_factory.mktemp("inputs")
+    save_clip(render_clip("stop", 1, 96, 64, n_pre_rest=1, n_motion=2, n_post_rest=0),
+              root / "clip")
+    assert cli.main(["gestures", "-o", str(root / "data.npz"), "--per-class", "3",
+                     "--people", "1", "--width", "320", "--height", "240"]) == 0
+    data = load_trajectories(root / "data.npz")
+    save_trajectories(data, root / "data2.npz")
+    np.save(root / "array.npy", np.zeros(3))
+    os.replace(root / "array.npy", root / "renamed.npz")                # .npy named .npz
+    (root / "truncated.npz").write_bytes((root / "data2.npz").read_bytes()[:200])
+    (root / "text.png").write_text("not a picture")
+    from recognition.datasets import TrajectorySet
+    one = TrajectorySet(data.points[:data.offsets[2]], data.offsets[:3],
+                        np.array(["stop", "stop"]))
+    save_trajectories(one, root / "one_class.npz")
+    empty = TrajectorySet(np.zeros((0, 2)), np.zeros(1, np.int64), np.array([], str))
+    save_trajectories(empty, root / "empty.npz")
+    arrays = dict(np.load(root / "data2.npz"))
+    arrays["label"] = np.array([""] * len(arrays["label"]))
+    np.savez(root / "blank_labels.npz", **arrays)
+    (root / "text.json").write_text("not json")
+    (root / "empty.json").write_text("{}")
+    (root / "afile").write_text("a file where a directory is expected")
+    (root / "adir").mkdir()
+    from PIL import Image
+    Image.fromarray(np.random.default_rng(0).integers(0, 256, (288, 384, 3), np.uint8)).save(
+        root / "rgb.png")                                               # a colour photo
+    models = json.loads(MODEL.read_text())
+    models["class_names"] = models["class_names"][:-1]                 # 6 names, 7 models
+    (root / "short_names.json").write_text(json.dumps(models))
+    return root
+
+
+def case(*argv, match, code=2):
+    return pytest.param(list(argv), match, code, id=" ".join(argv)[:80] or "no-args")
+
+
+IN = "{in}"          # the inputs folder
+OUT = "{out}"        # a fresh output folder (must stay empty)
+
+
+def int_option_cases(command, base, options):
+    """argparse-level bad values of every integer option: one line too."""
+    for option in options:
+        for bad in ("abc", "1.5", ""):
+            yield case(command, *base, option, bad, match=f"argument {option}")
+
+
+CASES = [
+    # ------------------------------------------------------------ top level
+    case(match="required: COMMAND"),
+    case("nonsense", match="invalid choice: 'nonsense'"),
+    case("render", "--gesture", "stop", "-o", f"{OUT}/c", "--no-such-option",
+         match="unrecognized arguments: --no-such-option"),
+    # ------------------------------------------------------------ render
+    *int_option_cases("render", ["--gesture", "stop", "-o", f"{OUT}/c"],
+                      ["--seed", "--width", "--height", "--fps"]),
+    case("render", "-o", f"{OUT}/c", match="--gesture"),
+    case("render", "--gesture", "stop", match="-o/--output"),
+    case("render", "--gesture", "wave", "-o", f"{OUT}/c", match="invalid choice: 'wave'"),
+    *[case("render", "--gesture", "stop", "-o", f"{OUT}/c", option, value, match=option)
+      for option, value in [("--seed", "-1"), ("--width", "95"), ("--width", "97"),
+                            ("--width", "4098"), ("--height", "63"), ("--height", "65"),
+                            ("--height", "5000"), ("--fps", "4"), ("--fps", "241")]],
+    case("render", "--gesture", "stop", "-o", f"{IN}/afile", match="not a stereogest clip"),
+    case("render", "--gesture", "stop", "-o", f"{OUT}/no/such/dir", match="does not exist"),
+    case("render", "--gesture", "stop", "-o", "/proc/stereogest-clip", "--width", "96",
+         "--height", "64", match="/proc"),
+    # ------------------------------------------------------------ clip
+    case("clip", "--right", f"{IN}/adir", "-o", f"{OUT}/c", match="--left"),
+    case("clip", "--left", f"{IN}/nope.avi", "--right", f"{IN}/adir", "-o", f"{OUT}/c",
+         match="--left: '"),
+    case("clip", "--left", f"{IN}/adir", "--right", f"{IN}/adir", "-o", f"{OUT}/c",
+         match="--left: folder"),
+    case("clip", "--left", f"{IN}/text.png", "--right", f"{IN}/text.png", "-o", f"{OUT}/c",
+         match="--left"),
+    case("clip", "--left", f"{IN}/afile", "--right", f"{IN}/afile", "-o", f"{OUT}/c",
+         match="--left"),
+    case("clip", "--left", f"{IN}/*.nothing", "--right", f"{IN}/afile", "-o", f"{OUT}/c",
+         match="--left: no file matches"),
+    *int_option_cases("clip", ["--left", "x", "--right", "y", "-o", f"{OUT}/c"],
+                      ["--width", "--height", "--fps", "--frames"]),
+    *[case("clip", "--left", f"{TSUKUBA}/left.png", "--right", f"{TSUKUBA}/right.png", "-o",
+           f"{OUT}/c", option, value, match=option)
+      for option, value in [("--width", "95"), ("--width", "97"), ("--height", "5000"),
+                            ("--fps", "0"), ("--fps", "1001"), ("--frames", "0"),
+                            ("--frames", "1801")]],
+    case("clip", "--left", f"{TSUKUBA}/left.png", "--right", f"{TSUKUBA}/right.png", "-o",
+         f"{OUT}/c", "--gesture", "wave", match="invalid choice"),
+    # ------------------------------------------------------------ stereo
+    case("stereo", match="required"),
+    case("stereo", f"{TSUKUBA}/left.png", match="required"),
+    case("stereo", f"{IN}/nope.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
+         match="nope.png"),
+    case("stereo", f"{IN}/text.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
+         match="text.png"),
+    case("stereo", f"{TSUKUBA}/left.png", f"{DATA}/middlebury/venus/right.png", "-o",
+         f"{OUT}/d.png", match="one size"),
+    case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{IN}/adir",
+         match="adir"),
+    case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/no/d.png",
+         match="no"),
+    *int_option_cases("stereo", [f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o",
+                                 f"{OUT}/d.png"],
+                      ["--census-window", "--hamming-window", "--max-disparity",
+                       "--lrcc-threshold", "--no-match-cost", "--threads"]),
+    *[case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
+           option, value, match=option)
+      for option, value in [("--census-window", "2"), ("--census-window", "4"),
+                            ("--census-window", "13"), ("--hamming-window", "0"),
+                            ("--hamming-window", "2"), ("--hamming-window", "65"),
+                            ("--max-disparity", "0"), ("--max-disparity", "257"),
+                            ("--lrcc-threshold", "0"), ("--lrcc-threshold", "49"),
+                            ("--no-match-cost", "-1"), ("--no-match-cost", "25"),
+                            ("--threads", "0"), ("--threads", "65")]],
+    case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
+         "--backend", "gpu", match="invalid choice"),
+    # ------------------------------------------------------------ eval-stereo
+    case("eval-stereo", f"{IN}/nope.png", f"{TSUKUBA}/disp_left.png", "--gt-scale", "16",
+         match="nope.png"),
+    case("eval-stereo", f"{TSUKUBA}/disp_left.png", f"{IN}/text.png", "--gt-scale", "16",
+         match="text.png"),
+    case("eval-stereo", f"{IN}/rgb.png", f"{TSUKUBA}/disp_left.png", "--gt-scale", "16",
+         match="rgb.png"),
+    *[case("eval-stereo", f"{TSUKUBA}/disp_left.png", f"{TSUKUBA}/disp_left.png",
+           "--gt-scale", "16", option, value, match=option)
+      for option, value in [("--max-error", "-1"), ("--max-error", "nan"),
+                            ("--max-error", "inf"), ("--max-error", "abc"),
+                            ("--exclude-left", "-1"), ("--exclude-left", "999"),
+                            ("--exclude-left", "abc")]],
+    *[case("eval-stereo", f"{TSUKUBA}/disp_left.png", f"{TSUKUBA}/disp_left.png",
+           "--gt-scale", value, match="--gt-scale")
+      for value in ("0", "-1", "nan", "inf", "abc")],
+    # ------------------------------------------------------------ pipeline
+    case("pipeline", "-o", f"{OUT}/p", match="CLIP"),
+    case("pipeline", f"{IN}/nope", "-o", f"{OUT}/p", match="not a clip directory"),
+    case("pipeline", f"{IN}/adir", "-o", f"{OUT}/p", match="clip.json"),
+    case("pipeline", f"{IN}/afile", "-o", f"{OUT}/p", match="not a clip directory"),
+    *[case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--frames", value, match="--frames")
+      for value in ("abc", "", ",", "-1", "999", "1;2")],
+    *int_option_cases("pipeline", [f"{IN}/clip", "-o", f"{OUT}/p"],
+                      ["--threads", "--spot-threshold", "--spot-hold"]),
+    *[case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", option, value, match=option)
+      for option, value in [("--threads", "0"), ("--threads", "65"),
+                            ("--spot-threshold", "-1"), ("--spot-threshold", "1024"),
+                            ("--spot-hold", "0"), ("--spot-hold", "256")]],
+    case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/nope.json",
+         match="nope.json"),
+    case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/text.json",
+         match="text.json"),
+    case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/empty.json",
+         match="empty.json"),
+    case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/short_names.json",
+         match="class"),
+    case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--backend", "fpga",
+         match="invalid choice"),
+    case("pipeline", f"{IN}/clip", "-o", f"{IN}/afile", match="afile"),
+    case("pipeline", f"{IN}/clip", "-o", "/proc/stereogest-out", match="/proc"),
+    # ------------------------------------------------------------ demo
+    *int_option_cases("demo", ["-o", f"{OUT}/d", "--backend", "model"],
+                      ["--seed", "--pre-rest", "--width", "--height", "--threads"]),
+    *[case("demo", "-o", f"{OUT}/d", "--backend", "model", option, value, match=option)
+      for option, value in [("--seed", "-1"), ("--pre-rest", "-2"), ("--pre-rest", "10001"),
+                            ("--width", "97"), ("--width", "94"), ("--width", "5000"),
+                            ("--height", "63"), ("--height", "241"), ("--threads", "0"),
+                            ("--threads", "65")]],
+    case("demo", "-o", f"{OUT}/d", "--gesture", "wave", match="invalid choice"),
+    case("demo", "-o", f"{OUT}/d", "--stage", "edges", match="invalid choice"),
+    case("demo", "-o", f"{OUT}/d", "--backend", "fpga", match="invalid choice"),
+    case("demo", "-o", f"{OUT}/d", "--model", f"{IN}/nope.json", match="nope.json"),
+    case("demo", "-o", f"{OUT}/d", "--model", f"{IN}/text.json", match="text.json"),
+    case("demo", "-o", f"{OUT}/d", "--clip", f"{IN}/nope", match="not a clip directory"),
+    case("demo", "-o", f"{IN}/afile", "--backend", "model", "--width", "96", "--height", "64",
+         match="afile"),
+    # ------------------------------------------------------------ live
+    case("live", match="--clip CLIP or both --left and --right"),
+    case("live", "--right", "1", match="--clip CLIP or both"),
+    *int_option_cases("live", ["--clip", f"{IN}/clip"],
+                      ["--width", "--height", "--port", "--fps", "--frames", "--threads"]),
+    *[case("live", "--clip", f"{IN}/clip", option, value, match=option)
+      for option, value in [("--port", "-1"), ("--port", "65536"), ("--fps", "0"),
+                            ("--frames", "0"), ("--frames", "1801")]],
+    case("live", "--clip", f"{IN}/nope", match="not a clip directory"),
+    case("live", "--left", f"{IN}/nope.avi", "--right", f"{IN}/nope.avi", match="--left"),
+    case("live", "--left", f"{IN}/adir", "--right", f"{IN}/adir", "--width", "97",
+         match="--width"),
+    case("live", "--clip", f"{IN}/clip", "--model", f"{IN}/text.json", match="text.json"),
+    # ------------------------------------------------------------ gestures
+    *int_option_cases("gestures", ["-o", f"{OUT}/g.npz"],
+                      ["--per-class", "--people", "--seed", "--width", "--height", "--fps"]),
+    *[case("gestures", "-o", f"{OUT}/g.npz", option, value, match=option)
+      for option, value in [("--per-class", "0"), ("--per-class", "100001"),
+                            ("--people", "0"), ("--people", "1001"), ("--seed", "-1"),
+                            ("--width", "95"), ("--height", "63"), ("--fps", "0")]],
+    case("gestures", "-o", f"{OUT}/no/g.npz", match="--output"),
+    case("gestures", "-o", f"{IN}/adir", match="--output"),
+    case("gestures", "-o", "/proc/stereogest.npz", "--per-class", "1", match="/proc"),
+    # ------------------------------------------------------------ train
+    case("train", f"{IN}/nope.npz", "-o", f"{OUT}/m.json", match="nope.npz"),
+    case("train", f"{IN}/renamed.npz", "-o", f"{OUT}/m.json", match="renamed.npz"),
+    case("train", f"{IN}/truncated.npz", "-o", f"{OUT}/m.json", match="truncated.npz"),
+    case("train", f"{IN}/text.json", "-o", f"{OUT}/m.json", match="text.json"),
+    case("train", f"{IN}/one_class.npz", "-o", f"{OUT}/m.json", match="one class"),
+    case("train", f"{IN}/empty.npz", "-o", f"{OUT}/m.json", match="no trajectories"),
+    case("train", f"{IN}/blank_labels.npz", "-o", f"{OUT}/m.json", match="label must not be"),
+    case("classify", str(MODEL), f"{IN}/empty.npz", match="no trajectories"),
+    case("classify", str(MODEL), f"{IN}/blank_labels.npz", match="label must not be empty"),
+    case("train", f"{IN}/data.npz", "-o", f"{OUT}/no/m.json", match="no"),
+    case("train", f"{IN}/data.npz", "-o", f"{IN}/adir", match="adir"),
+    *int_option_cases("train", [f"{IN}/data.npz", "-o", f"{OUT}/m.json"],
+                      ["--states", "--components", "--calibration-folds", "--folds",
+                       "--resample", "--max-iter", "--expected-length", "--jobs", "--seed"]),
+    *[case("train", f"{IN}/data.npz", "-o", f"{OUT}/m.json", option, value, match=option)
+      for option, value in [("--states", "0"), ("--components", "0"), ("--folds", "1"),
+                            ("--resample", "0"), ("--max-iter", "0"), ("--tol", "-1"),
+                            ("--tol", "nan"), ("--reject-quantile", "-0.5"),
+                            ("--reject-quantile", "2"), ("--reject-margin", "-1"),
+                            ("--emission-floor", "-1"), ("--seed", "-1"), ("--jobs", "0"),
+                            ("--cv-states", "x"), ("--cv-states", "5-2"),
+                            ("--expected-length", "0")]],
+    case("train", f"{IN}/data.npz", "-o", f"{OUT}/m.json", "--emission", "poisson",
+         match="invalid choice"),
+    # ------------------------------------------------------------ classify
+    case("classify", f"{IN}/nope.json", f"{IN}/data.npz", match="nope.json"),
+    case("classify", f"{IN}/text.json", f"{IN}/data.npz", match="text.json"),
+    case("classify", f"{IN}/empty.json", f"{IN}/data.npz", match="empty.json"),
+    case("classify", f"{IN}/short_names.json", f"{IN}/data.npz", match="class"),
+    case("classify", str(MODEL), f"{IN}/nope.npz", match="nope.npz"),
+    case("classify", str(MODEL), f"{IN}/renamed.npz", match="renamed.npz"),
+    case("classify", str(MODEL), f"{IN}/truncated.npz", match="truncated.npz"),
+    case("classify", str(MODEL), f"{IN}/data.npz", "--resample", "0", match="--resample"),
+    case("classify", str(MODEL), f"{IN}/data.npz", "--resample", "abc", match="--resample"),
+    case("classify", str(MODEL), f"{IN}/data.npz", "--plot", f"{OUT}/c.txt", match="--plot"),
+    # ------------------------------------------------------------ resources, timing, generate
+    *int_option_cases("resources", [], ["--width", "--height"]),
+    *int_option_cases("timing", [], ["--width", "--height", "--census-window",
+                                     "--hamming-window", "--max-disparity", "--opening-size",
+                                     "--seed"]),
+    case("timing", "--block", "cpu", match="--block"),
+    case("timing", "--seed", "0", match="--seed"),
+    case("timing", "--router", "router9", match="invalid choice"),
+    case("timing", "--timeout", "-1", match="--timeout"),
+    *int_option_cases("generate", ["-o", f"{OUT}/b"], ["--width", "--height"]),
+    case("generate", "-o", f"{OUT}/b", "--width", "641", match="--width"),
+    case("generate", "-o", f"{OUT}/b", "--height", "0", match="--height"),
+    case("generate", "-o", f"{IN}/afile", match="afile"),
+    case("generate", match="-o/--output"),
+]
+
+
+def _format(argv, inputs, out):
+    return [a.replace(IN, str(inputs)).replace(OUT, str(out)) for a in argv]
+
+
+def _tree(path: Path) -> list:
+    return sorted(str(p.relative_to(path)) for p in path.rglob("*"))
+
+
+@pytest.mark.parametrize("argv, match, code", CASES)
+def test_stereogest_bad_input(inputs, tmp_path, capsys, monkeypatch, argv, match, code):
+    out = tmp_path / "out"
+    out.mkdir()
+    monkeypatch.chdir(tmp_path)
+    before = _tree(inputs)
+    try:
+        status = cli.main(_format(argv, inputs, out))
+    except SystemExit as exc:          # argparse's own refusals
+        status = exc.code
+    captured = capsys.readouterr()
+    err = captured.err
+    assert status == code, (status, err)
+    assert "Traceback" not in err and err.count("\n") == 1, err
+    assert err.startswith("stereogest"), err
+    assert match in err, (match, err)
+    assert _tree(out) == [], "an output was left behind"
+    assert _tree(inputs) == before, "an input folder changed"
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+BOARD_CASES = [
+    *[(["--model", "{model}", "--bus", "sim", "--robot", "none", option, value], option)
+      for option, value in itertools.chain(
+          [("--poll-ms", v) for v in ("0", "-5", "abc", "1e9")],
+          [("--min-symbols", v) for v in ("0", "-1", "abc")],
+          [("--max-points", v) for v in ("0", "-1", "abc")],
+          [("--gesture-timeout", v) for v in ("0", "-1", "abc", "nan")],
+          [("--heartbeat", v) for v in ("-1", "abc", "nan")],
+          [("--bridge-offset", v) for v in ("0x3", "zz", "-4")],
+          [("--uart-offset", v) for v in ("0x8", "zz")],
+          [("--log-level", v) for v in ("loud", "")],
+      )],
+    (["--model", "{model}", "--bus", "sim", "--robot", "none", "--sim-trajectory",
+      "{tmp}/none.csv"], "none.csv: cannot read trajectory"),
+    (["--model", "{model}", "--bus", "sim", "--robot", "none", "--sim-trajectory",
+      "{model}"], "gestures7.json: header must name frame,x,y,flag"),
+    (["--model", "{tmp}/none.json", "--bus", "sim", "--robot", "none"], "none.json"),
+    (["--model", "{text}", "--bus", "sim", "--robot", "none"], "text.json"),
+    (["--model", "{short}", "--bus", "sim", "--robot", "none"], "class"),
+    (["--model", "{model}", "--bus", "pci", "--robot", "none"], "--bus"),
+    (["--model", "{model}", "--bus", "sim", "--robot", "wifi"], "--robot"),
+    (["--model", "{model}", "--bus", "sim"], "--robot"),
+    (["--bus", "sim", "--robot", "none"], "--model"),
+]
+
+
+@pytest.mark.parametrize("argv, match", BOARD_CASES, ids=lambda v: " ".join(v)[:60]
+                         if isinstance(v, list) else v)
+def test_board_application_bad_input(inputs, tmp_path, capsys, argv, match):
+    from sw_hps.__main__ import main
+    names = {"model": str(MODEL), "tmp": str(tmp_path), "text": str(inputs / "text.json"),
+             "short": str(inputs / "short_names.json")}
+    status = main([a.format(**names) for a in argv])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert err.count("\n") == 1 and err.startswith("python -m sw_hps: error:"), err
+    assert match.format(**names) in err and "Traceback" not in err
+
+
+def test_the_corpus_is_large():
+    assert len(CASES) + len(BOARD_CASES) >= 300
+
+
+def test_a_closed_pipe_is_no_error(inputs):
+    """`stereogest classify ... | head`: the reader leaves before the report is
+    written; the command ends quietly (exit 1, nothing on stderr)."""
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-m", "stereogest", "classify", str(MODEL),
+                             str(inputs / "data.npz")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()                      # the reader is gone before anything is written
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 1 and err == b"", err.decode()

@@ -1,0 +1,166 @@
+"""The live view (stereogest/live.py, `stereogest live`): the frame-by-frame
+session against the batch golden model, the page and its routes, the command,
+and the page in a real headless browser when Chromium is installed."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+
+from sim.model.pipeline import PipelineParams, run_clip
+from sim.render import render_clip
+from stereogest.cli import main
+from stereogest.commands.pipeline import recognise, shipped_model_path
+from stereogest.live import PANELS, LiveServer, LiveSession, run_source
+from sw_hps.hmm import load_models
+
+
+@pytest.fixture(scope="module")
+def gesture():
+    """A rendered gesture, then its last frame held for 30 frames (the hand
+    still: the gesture ends before the clip does)."""
+    clip = render_clip("rotate-right", 1, 320, 240, n_pre_rest=10)
+    clip.left = np.concatenate([clip.left, np.repeat(clip.left[-1:], 30, axis=0)])
+    clip.right = np.concatenate([clip.right, np.repeat(clip.right[-1:], 30, axis=0)])
+    return clip
+
+
+@pytest.fixture(scope="module")
+def models():
+    return load_models(shipped_model_path())
+
+
+@pytest.fixture(scope="module")
+def session(gesture, models):
+    params = PipelineParams.for_frame(320)
+    s = LiveSession(params, models)
+    states = []
+    run_source(s, zip(gesture.left, gesture.right), on_frame=lambda s: states.append(
+        dict(s.state)))
+    return s, states
+
+
+def test_session_follows_the_batch_model_frame_by_frame(session, gesture, models):
+    s, states = session
+    params = PipelineParams.for_frame(320)
+    trajectory, _ = run_clip(gesture.left, gesture.right, params)
+    assert s.frames == gesture.frames and s.state["done"] and s.state["error"] is None
+    assert [st["frame"] for st in states] == list(range(gesture.frames))
+    assert [st["flag"] for st in states] == trajectory.flag.tolist()
+    for st, xy, area in zip(states, trajectory.smoothed, trajectory.area):
+        if area:
+            assert st["centroid"] == [round(float(v) / 256, 1) for v in xy]
+    # the gesture is named when it ends, as the board application names it
+    name, telegram = recognise(models, trajectory)
+    assert name == "rotate-right"
+    assert s.state["recognised"] == name and s.state["telegram"] == telegram
+    assert s.state["history"][-1]["recognised"] == name
+    ended = [st["frame"] for st, nxt in zip(states, states[1:]) if st["flag"] and not nxt["flag"]]
+    assert s.state["recognised_at"] in [e + 1 for e in ended]
+
+
+def test_page_and_routes(session):
+    s, _ = session
+    server = LiveServer(s, 320, 240, port=0)
+    try:
+        assert server.httpd.server_address[0] == "127.0.0.1"      # local only
+        page = urllib.request.urlopen(server.url, timeout=10).read().decode()
+        for name in PANELS:
+            assert f'alt="{name}"' in page
+        state = json.loads(urllib.request.urlopen(server.url + "state.json", timeout=10).read())
+        assert state["frame"] == s.frames - 1 and state["recognised"] == "rotate-right"
+        for name in PANELS:
+            body = urllib.request.urlopen(
+                f"{server.url}panel/{name.replace(' ', '-')}.jpg?frame=3", timeout=10).read()
+            assert body[:2] == b"\xff\xd8", name                    # a JPEG
+        with pytest.raises(urllib.error.HTTPError) as exc:
+            urllib.request.urlopen(server.url + "panel/nothing.jpg", timeout=10)
+        assert exc.value.code == 404
+    finally:
+        server.close()
+
+
+def test_command_replays_a_clip(tmp_path, gesture, capsys):
+    from sim.clip import save_clip
+    path = save_clip(render_clip("rotate-right", 1, 320, 240, n_pre_rest=10), tmp_path / "clip")
+    assert main(["live", "--clip", str(path), "--fast", "--frames", "5", "--port", "0",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith(f"live view of clip {path} (320x240) on http://127.0.0.1:")
+    assert out[-1] == "5 frame pairs; last recognised: none"
+
+
+@pytest.mark.parametrize("argv, message", [
+    ([], "give either --clip CLIP or both --left and --right"),
+    (["--left", "0"], "give either --clip CLIP or both --left and --right"),
+    (["--clip", "x", "--left", "0", "--right", "1"], "give either --clip"),
+    (["--clip", "{clip}", "--port", "70000"], "--port must be an integer in [0, 65535]"),
+    (["--clip", "{clip}", "--frames", "0"], "--frames must be an integer in [1, 1800]"),
+    (["--clip", "{clip}", "--fps", "0"], "--fps must be an integer in [1, 1000]"),
+    (["--clip", "{tmp}/none"], "not a clip directory"),
+    (["--left", "{tmp}/a.avi", "--right", "{tmp}/b.avi"], "--left: '"),
+])
+def test_command_bad_input(tmp_path, gesture, capsys, argv, message):
+    from sim.clip import save_clip
+    clip = save_clip(render_clip("stop", 1, 96, 64, n_pre_rest=1, n_motion=2, n_post_rest=0),
+                     tmp_path / "c")
+    argv = [a.format(clip=clip, tmp=tmp_path) for a in argv]
+    assert main(["live", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+@pytest.mark.skipif(_chromium() is None,
+                    reason="no Chromium: .ci/run installs Debian's chromium when it can "
+                           "(apt-get, root); the page's routes are tested above without it")
+def test_page_in_a_headless_browser(session, tmp_path):
+    """Chromium loads the page, runs its script and shows every panel: each of
+    the nine pictures the server holds is found in the screenshot, three per
+    row in the page's order, and the recognised gesture is written out."""
+    import cv2
+    s, _ = session
+    server = LiveServer(s, 320, 240, port=0)
+    shot = tmp_path / "page.png"
+    try:
+        proc = subprocess.run(
+            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+             "--virtual-time-budget=3000", "--window-size=1100,1150",
+             f"--screenshot={shot}", server.url],
+            capture_output=True, text=True, timeout=120)
+        _, pictures = s.snapshot()
+        dom = subprocess.run(
+            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+             "--virtual-time-budget=3000", "--dump-dom", server.url],
+            capture_output=True, text=True, timeout=120).stdout
+    finally:
+        server.close()
+    assert shot.exists(), proc.stderr[-2000:]
+    page = cv2.imread(str(shot))
+    found = []
+    for name in PANELS:
+        panel = cv2.imdecode(np.frombuffer(pictures[name], np.uint8), cv2.IMREAD_COLOR)
+        scores = cv2.matchTemplate(page, panel, cv2.TM_CCOEFF_NORMED)
+        _, best, _, (x, y) = cv2.minMaxLoc(scores)
+        assert best > 0.9, (name, best)
+        found.append((x, y))
+    for k in range(0, len(PANELS), 3):                 # rows of three, left to right
+        row = found[k:k + 3]
+        assert row[0][0] < row[1][0] < row[2][0], found
+        assert max(abs(y - row[0][1]) for _, y in row) <= 2, found
+    assert found[0][1] < found[3][1] < found[6][1], found
+    # the page's script filled in the state: frame, recognised gesture, telegram
+    assert f'<span id="frame">{s.frames - 1}</span>' in dom
+    assert '<span id="gesture">rotate-right</span>' in dom
+    assert f"NXT telegram {s.state['telegram']}" in dom
