@@ -38,7 +38,7 @@ import termios
 import time
 
 from .app import (DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, DEFAULT_MAX_POINTS,
-                  DEFAULT_MIN_SYMBOLS, GestureApp, simulate_trajectory)
+                  DEFAULT_MIN_SYMBOLS, GestureApp, check_models, simulate_trajectory)
 from .bus import BusError, DevMemBus, SimBus, UioBus
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
     """Entry point; returns the exit status (never raises)."""
     try:
         args = parse_args(sys.argv[1:] if argv is None else argv)
-        models = load_models(args.model)
+        models = check_models(load_models(args.model))
         trajectory = read_trajectory_csv(args.sim_trajectory) \
             if args.sim_trajectory is not None else None
     except (UsageError, ValueError) as exc:

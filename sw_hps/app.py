@@ -110,14 +110,14 @@ from .bus import SimBus
 from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FRAME_WIDTH,
                    FifoPeripheral, FifoStatus, from_fixed)
 from .hmm import GestureModels
-from .orientation import NO_SYMBOL, orientation_symbols
+from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
 from .robot import GESTURE_NAMES, NullLink, telegram
 from .simulated import SimulatedFifoPeripheral
 
 __all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "SimulatedClock",
            "SimulationRun", "simulate_trajectory", "run_on_trajectory", "DEFAULT_MIN_SYMBOLS",
            "DEFAULT_MAX_POINTS", "DEFAULT_GESTURE_TIMEOUT", "DEFAULT_HEARTBEAT",
-           "DEFAULT_MAX_BAD_POINTS"]
+           "DEFAULT_MAX_BAD_POINTS", "check_models"]
 
 log = logging.getLogger(__name__)
 
@@ -137,6 +137,16 @@ DEFAULT_HEARTBEAT = 60.0
 DEFAULT_MAX_BAD_POINTS = 5
 #: Frame widths / heights the 10.8 format can carry (10 integer bits).
 _MAX_FRAME_SIZE = 1 << (DATA_BITS - FRAC_BITS)
+
+
+def check_models(models: GestureModels) -> GestureModels:
+    """Refuse (``ValueError``) models this application cannot run: discrete
+    models must emit the 8 orientation symbols the FIFO's points give. The
+    command line and the bundle check it before anything runs or ships."""
+    if models.emission == "discrete" and models.num_symbols != NUM_SYMBOLS:
+        raise ValueError(f"models must use the {NUM_SYMBOLS} orientation symbols, "
+                         f"got num_symbols={models.num_symbols}")
+    return models
 
 
 class State(enum.Enum):
@@ -356,9 +366,7 @@ class GestureApp:
                  max_bad_points: int = DEFAULT_MAX_BAD_POINTS,
                  frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
                  clock: Callable[[], float] = time.monotonic):
-        if models.emission == "discrete" and models.num_symbols != 8:
-            raise ValueError(f"models must use the 8 orientation symbols, "
-                             f"got num_symbols={models.num_symbols}")
+        check_models(models)
         for name, value in (("max_points", max_points), ("max_pairs_per_poll", max_pairs_per_poll)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be an int >= 1, got {value!r}")

@@ -17,6 +17,7 @@ import sys
 import tarfile
 from pathlib import Path
 
+from sw_hps.app import check_models
 from sw_hps.hmm import load_models
 
 PACKAGE = Path(__file__).resolve().parent
@@ -45,7 +46,7 @@ def _add_bytes(tar: tarfile.TarFile, name: str, data: bytes) -> None:
 def build_bundle(model_path, output) -> list[str]:
     """Write the tarball; return the member names. The model is validated first."""
     model_path = Path(model_path)
-    load_models(model_path)  # refuse to ship a malformed model
+    check_models(load_models(model_path))  # refuse a model the application would refuse
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     members = sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)

@@ -55,6 +55,11 @@ def inputs(tmp_path_factory):
     models = json.loads(MODEL.read_text())
     models["class_names"] = models["class_names"][:-1]                 # 6 names, 7 models
     (root / "short_names.json").write_text(json.dumps(models))
+    thesis = json.loads((MODEL.parent / "thesis7.json").read_text())
+    thesis["num_symbols"] = 9                 # a valid HMM file, but not for 8 orientations
+    for m in thesis["models"]:
+        m["B"] = [[p * 0.9 for p in row] + [0.1] for row in m["B"]]
+    (root / "nine_symbols.json").write_text(json.dumps(thesis))
     return root
 
 
@@ -323,6 +328,7 @@ BOARD_CASES = [
     (["--model", "{tmp}/none.json", "--bus", "sim", "--robot", "none"], "none.json"),
     (["--model", "{text}", "--bus", "sim", "--robot", "none"], "text.json"),
     (["--model", "{short}", "--bus", "sim", "--robot", "none"], "class"),
+    (["--model", "{nine}", "--bus", "sim", "--robot", "none"], "8 orientation symbols"),
     (["--model", "{model}", "--bus", "pci", "--robot", "none"], "--bus"),
     (["--model", "{model}", "--bus", "sim", "--robot", "wifi"], "--robot"),
     (["--model", "{model}", "--bus", "sim"], "--robot"),
@@ -335,7 +341,7 @@ BOARD_CASES = [
 def test_board_application_bad_input(inputs, tmp_path, capsys, argv, match):
     from sw_hps.__main__ import main
     names = {"model": str(MODEL), "tmp": str(tmp_path), "text": str(inputs / "text.json"),
-             "short": str(inputs / "short_names.json")}
+             "short": str(inputs / "short_names.json"), "nine": str(inputs / "nine_symbols.json")}
     status = main([a.format(**names) for a in argv])
     err = capsys.readouterr().err
     assert status == 2, err
@@ -358,3 +364,17 @@ def test_a_closed_pipe_is_no_error(inputs):
     proc.stdout.close()                      # the reader is gone before anything is written
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 1 and err == b"", err.decode()
+
+
+@pytest.mark.parametrize("model, match", [("nine_symbols.json", "8 orientation symbols"),
+                                          ("short_names.json", "class"),
+                                          ("text.json", "text.json")])
+def test_bundle_refuses_what_the_application_refuses(inputs, tmp_path, capsys, model, match):
+    """`python -m sw_hps.bundle` ships only a model the board application runs
+    (exit 2, one line, no tarball), as `python -m sw_hps` would refuse it."""
+    from sw_hps.bundle import main
+    out = tmp_path / "bundle.tar.gz"
+    assert main(["--model", str(inputs / model), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("sw_hps.bundle: error:") and match in err
+    assert list(tmp_path.iterdir()) == []
