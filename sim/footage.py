@@ -35,7 +35,7 @@ from sim.clip import Clip
 from sim.model.ycbcr import ycbcr444_to_422
 from sim.render import HEIGHT_RANGE, WIDTH_RANGE
 
-__all__ = ["bgr_to_ycbcr", "frame_to_422", "frame_to_bgr", "FrameSource", "open_source",
+__all__ = ["bgr_to_ycbcr", "frame_to_422", "frame_to_bgr", "FrameSource",
            "StereoSource", "footage_clip", "check_option",
            "IMAGE_SUFFIXES", "WIDTH_RANGE", "HEIGHT_RANGE", "MAX_FRAMES", "CONVERSION"]
 
@@ -170,11 +170,6 @@ class FrameSource:
             self.capture = None
 
 
-def open_source(spec: str, option: str = "source") -> FrameSource:
-    """A :class:`FrameSource` for ``spec`` (ValueError naming ``option`` if unusable)."""
-    return FrameSource(spec, option)
-
-
 class StereoSource:
     """Frame pairs of two sources as 4:2:2 camera frames (``width`` x
     ``height``), read in lockstep: both frames grabbed, then both decoded.
@@ -195,8 +190,8 @@ class StereoSource:
         self.width, self.height, self.frames = width, height, frames
         self.sources = []
         try:
-            self.sources.append(open_source(left, "--left"))
-            self.sources.append(open_source(right, "--right"))
+            self.sources.append(FrameSource(left, "--left"))
+            self.sources.append(FrameSource(right, "--right"))
         except BaseException:
             self.close()
             raise

@@ -19,10 +19,6 @@ from stereogest.commands import DEFAULT_SEED, check_output_file
 NAME = "gestures"
 HELP = "write a synthetic corpus of gesture trajectories (hand centroids per frame)"
 
-# Library parameter -> command-line option, for error messages.
-_OPTIONS = {"per_class": "--per-class", "people": "--people", "seed": "--seed",
-            "width": "--width", "height": "--height", "fps": "--fps"}
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="CORPUS.npz",
@@ -45,16 +41,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also print the result as a JSON last line")
 
 
-def _option_message(exc: ValueError) -> str:
-    """The library's message with its leading parameter name replaced by the option."""
-    message = str(exc)
-    for param, option in _OPTIONS.items():
-        rest = message[len(param):]
-        if message.startswith(param) and not (rest[:1].isalnum() or rest[:1] == "_"):
-            return option + rest
-    return message
-
-
 def run(args: argparse.Namespace) -> int:
     # Imported here so that `stereogest --help` stays fast.
     import numpy as np
@@ -64,11 +50,10 @@ def run(args: argparse.Namespace) -> int:
     from sim.gesture_shapes import GESTURE_NAMES
 
     output = check_output_file(args.output)
-    try:
-        corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,
-                                 args.height, args.fps)
-    except ValueError as exc:
-        raise ValueError(_option_message(exc)) from None
+    # (a parameter named in the library's message is named as its option by
+    # stereogest.cli.in_option_names)
+    corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,
+                             args.height, args.fps)
     data = corpus.data
     save_trajectories(data, output, motion=corpus.motion, amplitude=corpus.amplitude,
                       dropped=corpus.dropped, fps=np.int64(args.fps),
