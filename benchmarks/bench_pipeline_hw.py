@@ -89,8 +89,11 @@ def baseline_clip(rev: str, left, right, ref, repeat: int) -> dict:
     ``repeat`` runs."""
     with tempfile.TemporaryDirectory(prefix="baseline-") as tmp:
         tree = Path(tmp) / "tree"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
-                       check=True, capture_output=True)
+        added = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
+                                rev], capture_output=True, text=True)
+        if added.returncode != 0:
+            raise SystemExit(f"bench_pipeline_hw: error: --baseline {rev}: not a commit of "
+                             f"this repository ({added.stderr.strip().splitlines()[-1]})")
         try:
             np.save(Path(tmp) / "left.npy", left)
             np.save(Path(tmp) / "right.npy", right)
@@ -235,6 +238,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.repeat < 1:
         ap.error(f"--repeat must be at least 1, got {args.repeat}")
+    if args.baseline is not None and subprocess.run(
+            ["git", "-C", str(ROOT), "rev-parse", "--verify", "--quiet",
+             f"{args.baseline}^{{commit}}"], capture_output=True).returncode != 0:
+        ap.error(f"--baseline must name a commit of this repository, got {args.baseline!r}")
     warnings.filterwarnings("ignore", module="amaranth")
     result = {"timing": timing()}
     t = result["timing"]
