@@ -30,9 +30,9 @@ bench: $(STAMP)
 # pipeline (about an hour and a half on this machine; figures in hdl/README.md).
 timing: $(STAMP)
 	mkdir -p build
-	$(BIN)/stereogest timing --block all --json build/timing_blocks.json
-	$(BIN)/stereogest timing --block matcher --json build/timing_matcher.json
-	$(BIN)/stereogest timing --block pipeline --json build/timing_pipeline.json
+	$(BIN)/stereogest timing --block all -o build/timing_blocks.json
+	$(BIN)/stereogest timing --block matcher -o build/timing_matcher.json
+	$(BIN)/stereogest timing --block pipeline -o build/timing_pipeline.json
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'

@@ -40,7 +40,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.pipeline import VIDEO_STAGES, PipelineParams
 
-from ._util import OVERRUN_ROWS, bits_for, check_geometry
+from ._util import OVERRUN_ROWS, bits_for
 from .camera_capture import CameraCapture
 from .centroid import Centroid
 from .gesture_spotting import GestureSpotting
@@ -97,12 +97,9 @@ class GesturePipeline(wiring.Component):
     def __init__(self, width: int = 640, height: int = 480,
                  params: PipelineParams = PipelineParams(), *, fifo_depth: int = 2048,
                  sync_threshold: int = 64):
-        width, height = check_geometry(width, height)
-        if width % 2:
-            raise ValueError(f"width must be even (4:2:2 pixel pairs), got {width}")
         if not isinstance(params, PipelineParams):
             raise ValueError(f"params must be a PipelineParams, got {type(params).__name__}")
-        params.validate(width, height)
+        params.validate(width, height)        # the frame size too: one range, the model's
         self.width, self.height, self.params = width, height, params
         p = params
         self._capture = [CameraCapture(width, height) for _ in range(2)]

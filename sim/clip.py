@@ -42,7 +42,8 @@ from sim.gesture_shapes import GESTURE_NAMES
 
 __all__ = [
     "CLIP_FORMAT", "CLIP_VERSION", "PIXEL_FORMAT", "MAX_DISPARITY", "TRUTH_HEADER",
-    "REQUIRED_FIELDS", "TRUTH_FIELDS", "Clip", "save_clip", "load_clip", "is_clip_dir",
+    "REQUIRED_FIELDS", "TRUTH_FIELDS", "Clip", "save_clip", "check_clip_target", "load_clip",
+    "is_clip_dir",
     "round_truth",
 ]
 
@@ -282,6 +283,32 @@ def _truth_text(clip: Clip) -> str:
     return out.getvalue()
 
 
+def check_clip_target(path) -> Path:
+    """The directory :func:`save_clip` may write ``path`` as, checked before any
+    work: a new name in an existing folder, an empty directory or an old clip
+    (which is replaced).
+
+    Raises
+    ------
+    ValueError
+        If ``path`` exists and is not a clip.
+    FileNotFoundError
+        If the parent directory of ``path`` does not exist.
+    """
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
+    if not target.name:
+        raise ValueError(f"clip path must name a directory, got {str(path)!r}")
+    if target.exists() or target.is_symlink():
+        empty_dir = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
+        if not (empty_dir or (target.is_dir() and is_clip_dir(target))):
+            raise ValueError(f"{target} exists and is not a stereogest clip; "
+                             f"refusing to overwrite it")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"parent directory of the clip does not exist: {parent}")
+    return target
+
+
 def save_clip(clip: Clip, path) -> Path:
     """Write ``clip`` as a clip directory at ``path`` (atomically).
 
@@ -303,18 +330,8 @@ def save_clip(clip: Clip, path) -> Path:
         If the parent directory of ``path`` does not exist.
     """
     clip.validate()
-    target = Path(path)
+    target = check_clip_target(path)
     parent = target.parent if str(target.parent) else Path(".")
-    if not target.name:
-        raise ValueError(f"clip path must name a directory, got {str(path)!r}")
-    if target.exists() or target.is_symlink():
-        empty_dir = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
-        if not (empty_dir or (target.is_dir() and is_clip_dir(target))):
-            raise ValueError(f"{target} exists and is not a stereogest clip; "
-                             f"refusing to overwrite it")
-    if not parent.is_dir():
-        raise FileNotFoundError(f"parent directory of the clip does not exist: {parent}")
-
     staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=parent))
     old = None
     try:

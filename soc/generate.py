@@ -37,7 +37,7 @@ from .clocks import CONFIG_HZ, PCLK_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
 from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfaces, hw_tcl, \
     system_tcl, verilog_ports
 
-__all__ = ["generate", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
+__all__ = ["generate", "check_out_dir", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
            "is_bundle", "GrayCrossing", "async_fifo_crossings", "sdc_constraints",
            "pll_clock_name", "OV5642_DVP", "ADV7123", "SYSTEM_INSTANCE"]
 
@@ -88,7 +88,9 @@ def is_bundle(path) -> bool:
         return False
 
 
-def _check_out_dir(out_dir) -> Path:
+def check_out_dir(out_dir) -> Path:
+    """``out_dir`` as :func:`generate` accepts it (new, empty or a previous
+    bundle), checked before any work; ``ValueError`` otherwise."""
     if not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir):
         raise ValueError(f"out_dir must be a path, got {out_dir!r}")
     out = Path(out_dir)
@@ -138,7 +140,7 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     """
     start = time.perf_counter()
     say = progress or (lambda message: None)
-    out = _check_out_dir(out_dir)
+    out = check_out_dir(out_dir)
     sync_hz = _frequency("sync_hz", sync_hz, 10e6, 200e6)
     vga_hz = _frequency("vga_hz", vga_hz, 10e6, 100e6)
     xclk_hz = _frequency("xclk_hz", xclk_hz, 6e6, 27e6)

@@ -69,6 +69,8 @@ def case(*argv, match, code=2):
 
 IN = "{in}"          # the inputs folder
 OUT = "{out}"        # a fresh output folder (must stay empty)
+RO = "{ro}"          # a read-only file system (a tmpfs mounted read-only)
+DENIED = "{denied}"  # a folder that refuses new files even to root (/sys)
 
 
 def int_option_cases(command, base, options):
@@ -211,12 +213,15 @@ CASES = [
                       ["--width", "--height", "--port", "--fps", "--frames", "--threads"]),
     *[case("live", "--clip", f"{IN}/clip", option, value, match=option)
       for option, value in [("--port", "-1"), ("--port", "65536"), ("--fps", "0"),
-                            ("--frames", "0"), ("--frames", "1801")]],
+                            ("--frames", "0"), ("--frames", "1801"), ("--threads", "0"),
+                            ("--threads", "65")]],
     case("live", "--clip", f"{IN}/nope", match="not a clip directory"),
     case("live", "--left", f"{IN}/nope.avi", "--right", f"{IN}/nope.avi", match="--left"),
     case("live", "--left", f"{IN}/adir", "--right", f"{IN}/adir", "--width", "97",
          match="--width"),
     case("live", "--clip", f"{IN}/clip", "--model", f"{IN}/text.json", match="text.json"),
+    case("live", "--clip", f"{IN}/clip", "--width", "320", match="--width applies to --left"),
+    case("live", "--clip", f"{IN}/clip", "--height", "240", match="--height applies to"),
     # ------------------------------------------------------------ gestures
     *int_option_cases("gestures", ["-o", f"{OUT}/g.npz"],
                       ["--per-class", "--people", "--seed", "--width", "--height", "--fps"]),
@@ -280,7 +285,70 @@ CASES = [
 ]
 
 
-def _format(argv, inputs, out):
+def _output_cases():
+    """Every command's every output on a read-only file system, in a folder
+    without permission, under /proc, and as an existing file or directory where
+    the other is expected: refused before any work, naming the option."""
+    stereo = ["stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png"]
+    clip = ["clip", "--left", f"{TSUKUBA}/left.png", "--right", f"{TSUKUBA}/right.png"]
+    small = ["--width", "96", "--height", "64"]
+    train = ["train", f"{IN}/data.npz"]
+    report = [*train, "--emission", "discrete", "--cv-states", "2-3", "-o", f"{OUT}/m.json"]
+    outputs = [  # (argv before the path, option, argv after the path)
+        ([*stereo, "-o"], "--output", []),
+        (["pipeline", f"{IN}/clip", "-o"], "--output", []),
+        (["render", "--gesture", "stop", *small, "-o"], "--output", []),
+        ([*clip, *small, "-o"], "--output", []),
+        (["demo", "--backend", "model", *small, "-o"], "--output", []),
+        (["gestures", "--per-class", "1", "-o"], "--output", []),
+        ([*train, "-o"], "--output", []),
+        ([*report, "--report"], "--report", []),
+        (["classify", str(MODEL), f"{IN}/data.npz", "--plot"], "--plot", [".png"]),
+        (["generate", "--width", "64", "--height", "16", "-o"], "--output", []),
+        (["timing", "--block", "median3x3", "-o"], "--output", []),
+        (["timing", "--block", "median3x3", "--keep"], "--keep", []),
+    ]
+    for before, option, suffix in outputs:
+        for where, why in ((f"{RO}/x", "Read-only file system"), (f"{DENIED}/x", "Permission"),
+                           ("/proc/stereogest-x", "/proc")):
+            yield case(*before, where + "".join(suffix), match=f"{option}: cannot write")
+    yield case(*report, "--report", f"{IN}/adir", match="--report: ")
+    yield case(*clip, "-o", f"{IN}/afile", match="--output: ")
+    yield case("timing", "--block", "median3x3", "--json", f"{IN}/adir", match="--json: ")             # the older spelling
+    yield case("timing", "--block", "median3x3", "-o", f"{OUT}/t.json", "--json", f"{OUT}/u.json",
+               match="older spelling")
+    yield case("timing", "--block", "median3x3", "--keep", f"{IN}/afile", match="--keep: ")
+    yield case("generate", "-o", f"{IN}", match="--output")      # not empty, not a bundle
+
+
+CASES += list(_output_cases())
+
+
+@pytest.fixture(scope="module")
+def unwritable(tmp_path_factory):
+    """The folders RO and DENIED stand for, or None where this machine has none
+    (mounting needs root; /sys may be an ordinary folder in a container)."""
+    import subprocess
+    import tempfile
+    ro = tmp_path_factory.mktemp("ro")
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(ro)],
+                             capture_output=True).returncode == 0 if os.geteuid() == 0 else False
+    try:
+        tempfile.mkstemp(dir="/sys")
+        denied = None
+    except OSError:
+        denied = "/sys"
+    yield {"ro": str(ro) if mounted else None, "denied": denied}
+    if mounted:
+        subprocess.run(["umount", str(ro)], check=False)
+
+
+def _format(argv, inputs, out, unwritable=None):
+    for token, name in ((RO, "ro"), (DENIED, "denied")):
+        if any(token in a for a in argv):
+            if unwritable[name] is None:
+                pytest.skip(f"no {name} folder on this machine (needs root and sysfs)")
+            argv = [a.replace(token, unwritable[name]) for a in argv]
     return [a.replace(IN, str(inputs)).replace(OUT, str(out)) for a in argv]
 
 
@@ -289,13 +357,15 @@ def _tree(path: Path) -> list:
 
 
 @pytest.mark.parametrize("argv, match, code", CASES)
-def test_stereogest_bad_input(inputs, tmp_path, capsys, monkeypatch, argv, match, code):
+def test_stereogest_bad_input(inputs, unwritable, tmp_path, capsys, monkeypatch, argv, match,
+                              code):
     out = tmp_path / "out"
     out.mkdir()
     monkeypatch.chdir(tmp_path)
+    argv = _format(argv, inputs, out, unwritable)
     before = _tree(inputs)
     try:
-        status = cli.main(_format(argv, inputs, out))
+        status = cli.main(argv)
     except SystemExit as exc:          # argparse's own refusals
         status = exc.code
     captured = capsys.readouterr()

@@ -214,6 +214,15 @@ def test_pipeline_outputs(tmp_path, capsys, clip_dir):
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith("frame_")) == [
         "summary.json", "trajectory.csv", "trajectory.png"]
 
+    # the folder used again: the pictures of the last run go (none may pass for
+    # this run's), a file of the user's stays
+    (out / "notes.txt").write_text("mine")
+    status, _, _ = run(capsys, "pipeline", path, "-o", out, "--frames", "3", "--quiet")
+    assert status == 0
+    assert sorted(p.name for p in out.glob("frame_*.png")) == sorted(
+        f"frame_0003_{s}.png" for s in STAGES + ("sheet",))
+    assert (out / "notes.txt").read_text() == "mine"
+
 
 @pytest.mark.parametrize("frames, words", [("0,99", ["--frames", "99"]),
                                            ("0,x", ["--frames", "'0,x'"]),

@@ -116,9 +116,9 @@ def test_unknown_clock_port():
     (["--width", "641"], "--width must be even"),
     (["--seed", "0"], "--seed must be"),
     (["--timeout", "0"], "--timeout must be in"),
-    (["--json", "/nonexistent-dir/t.json"], "--json '/nonexistent-dir/t.json': directory"),
-    (["--json", "/"], "--json '/' is a directory"),
-    (["--keep", "/nonexistent-dir/keep"], "--keep '/nonexistent-dir/keep': directory"),
+    (["--json", "/nonexistent-dir/t.json"], "--json: directory /nonexistent-dir does not exist"),
+    (["--json", "/"], "--json: / is a directory"),
+    (["--keep", "/nonexistent-dir/keep"], "--keep: directory /nonexistent-dir does not exist"),
 ])
 def test_bad_options(argv, message, capsys):
     assert main(["timing", *argv]) == 2

@@ -89,10 +89,12 @@ def test_command_replays_a_clip(tmp_path, gesture, capsys):
     from sim.clip import save_clip
     path = save_clip(render_clip("rotate-right", 1, 320, 240, n_pre_rest=10), tmp_path / "clip")
     assert main(["live", "--clip", str(path), "--fast", "--frames", "5", "--port", "0",
-                 "--quiet"]) == 0
+                 "--quiet", "--json"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith(f"live view of clip {path} (320x240) on http://127.0.0.1:")
-    assert out[-1] == "5 frame pairs; last recognised: none"
+    assert out[-2] == "5 frame pairs; last recognised: none"
+    assert json.loads(out[-1]) == {"source": f"clip {path}", "width": 320, "height": 240,
+                                   "frames": 5, "recognised": None, "telegram": None}
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -283,8 +283,28 @@ def test_validate_frame_size():
         PipelineParams().validate(8, 240)
     with pytest.raises(ValueError, match="height"):
         PipelineParams().validate(320, 4097)
-    with pytest.raises(ValueError, match="max_disparity"):
+    with pytest.raises(ValueError, match=r"^width must be in \[48, 4096\], got 40"):
         PipelineParams().validate(40, 240)          # D = 48 > width
+    with pytest.raises(ValueError, match=r"^width must be even, in \[48, 4096\]"):
+        PipelineParams().validate(321, 240)
+    PipelineParams().validate(48, 16)               # the smallest frame, both bounds
+
+
+@pytest.mark.parametrize("kwargs, low", [
+    ({}, 48),                                       # D
+    (dict(max_disparity=16, lrcc_threshold=4, band_low=4), 30),    # Wh + 1
+    (dict(max_disparity=8, lrcc_threshold=4, band_low=2, hamming_window=9), 16),  # the floor
+    (dict(max_disparity=8, lrcc_threshold=4, band_low=2, hamming_window=9,
+          opening_size=21), 24),                                        # W + 2 = 23, even
+    (dict(max_disparity=33, band_low=20), 34),      # rounded up to even
+])
+def test_width_range_is_what_validate_enforces(kwargs, low):
+    """The one width range a command states is the one the pipeline checks."""
+    params = PipelineParams(**kwargs)
+    assert params.width_range() == (low, 4096)
+    params.validate(low, 240)
+    with pytest.raises(ValueError, match=rf"^width must be .*\[{low}, 4096\]"):
+        params.validate(low - 2, 240)
 
 
 # ---------------------------------------------------------------- run_clip
@@ -324,5 +344,5 @@ def test_run_clip_errors(small_clip):
         run_clip(clip.left, clip.right, PipelineParams(census_window=13),
                  progress=lambda done, total: calls.append(done))
     assert calls == []
-    with pytest.raises(ValueError, match="max_disparity"):   # D = 200 > 160 px
+    with pytest.raises(ValueError, match=r"width must be in \[200, "):   # D = 200 > 160 px
         run_clip(clip.left, clip.right, PipelineParams(max_disparity=200))

@@ -64,11 +64,23 @@ class PipelineParams:
     spot_threshold: int = 30          #: Tm, pixels
     spot_hold: int = 16               #: still frames that end a gesture
 
+    #: Frame heights the pipeline accepts (the widths depend on the parameters:
+    #: :meth:`width_range`).
+    HEIGHT_RANGE = (16, 4096)
+
+    def width_range(self) -> tuple[int, int]:
+        """The frame widths these parameters allow, ``(low, high)``; a width must
+        also be even (4:2:2 pixel pairs). A row must hold the disparity search D,
+        the census window Wc and the Hamming window Wh with a pixel beside them
+        and the opening's W + 2 (the window stages' line buffers), and at least 16."""
+        low = max(16, self.max_disparity, self.census_window + 2, self.hamming_window + 1,
+                  self.opening_size + 2)
+        return low + low % 2, 4096
+
     def validate(self, width: int, height: int) -> None:
-        """Raise ``ValueError`` naming the first parameter out of range."""
-        check_int("width", width, 16, 4096)
-        check_int("height", height, 16, 4096)
-        check_stereo_params(width, height, self.census_window, self.hamming_window,
+        """Raise ``ValueError`` naming the first parameter out of range: the
+        parameters first, then the frame size against :meth:`width_range`."""
+        check_stereo_params(4096, 4096, self.census_window, self.hamming_window,
                             self.max_disparity, self.lrcc_threshold, self.no_match_cost)
         # The cheap stages validate themselves; run them once on a tiny input and
         # rename the stage's argument in the message to the field of this class.
@@ -85,6 +97,12 @@ class PipelineParams:
         _renamed({"window": "spot_window", "threshold": "spot_threshold", "hold": "spot_hold"},
                  gesture_spotting, *point, self.spot_window, self.spot_threshold,
                  self.spot_hold, self.frac_bits)
+        low, high = self.width_range()
+        check_int("width", width, low, high)
+        if width % 2:
+            raise ValueError(f"width must be even, in [{low}, {high}] (4:2:2 pixel pairs), "
+                             f"got {width}")
+        check_int("height", height, *self.HEIGHT_RANGE)
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -9,9 +9,49 @@ Each module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and
 DEFAULT_SEED = 1
 
 
+def add_json_switch(parser, always: bool = False) -> None:
+    """``--json``, the same switch on every command that prints a result: the
+    result as one JSON document on the last line of stdout. ``always``: the
+    command prints it anyway (the switch is accepted so that scripts can pass
+    it to every command)."""
+    parser.add_argument("--json", action="store_true",
+                        help="the result is always printed as a JSON last line (accepted "
+                             "for uniformity)" if always else
+                             "also print the result as a JSON last line")
+
+
+def frame_size_help(parser) -> None:
+    """``--width`` and ``--height`` of a command that builds the whole pipeline,
+    with the one range :meth:`sim.model.pipeline.PipelineParams.validate` enforces."""
+    from sim.model.pipeline import PipelineParams
+    params = PipelineParams()
+    low, high = params.width_range()
+    parser.add_argument("--width", type=int, default=640,
+                        help=f"frame width in pixels, even, {low}..{high} with the thesis "
+                             "parameters (at least D, Wc + 2, Wh + 1 and W + 2) (default: 640)")
+    parser.add_argument("--height", type=int, default=480,
+                        help="frame height in pixels, {}..{} (default: 480)".format(
+                            *params.HEIGHT_RANGE))
+
+
+def _probe(directory, path, option: str) -> None:
+    """Refuse (``ValueError`` naming ``option`` and ``path``) unless a file can be
+    made in ``directory``: asking the file system itself is the only answer that
+    holds for a read-only mount, a pseudo file system (/proc, /sys) and root."""
+    import os
+    import tempfile
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".stereogest-probe-", dir=directory)
+    except OSError as exc:
+        raise ValueError(f"{option}: cannot write {path} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
 def check_output_file(path, option: str = "--output"):
     """The path of an output file, refused (``ValueError`` naming ``option``)
-    before any work when its folder does not exist or it is a directory."""
+    before any work when its folder does not exist, cannot be written, or it is
+    a directory. An existing file is replaced (atomically, by the writer)."""
     from pathlib import Path
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
@@ -19,22 +59,53 @@ def check_output_file(path, option: str = "--output"):
         raise ValueError(f"{option}: {path} is a directory, expected a file name")
     if not parent.is_dir():
         raise ValueError(f"{option}: directory {parent} does not exist")
+    _probe(parent, path, option)
     return path
 
 
+def check_output_dir(path, option: str = "--output", parents: bool = True):
+    """The path of an output directory, refused before any work when it is an
+    existing file, cannot be made (``parents``: the nearest existing folder
+    above it must be writable; otherwise its parent must exist) or cannot be
+    written."""
+    from pathlib import Path
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option}: {path} exists and is not a directory")
+    if path.is_dir():
+        _probe(path, path, option)
+        return path
+    above = path.parent if str(path.parent) else Path(".")
+    if not parents and not above.is_dir():
+        raise ValueError(f"{option}: directory {above} does not exist")
+    while not above.exists() and above != above.parent:
+        above = above.parent
+    if not above.is_dir():
+        raise ValueError(f"{option}: cannot create {path} ({above} is not a directory)")
+    _probe(above, path, option)
+    return path
+
+
+def check_clip_output(path, option: str = "--output"):
+    """A clip directory to be written (:func:`sim.clip.check_clip_target`: new,
+    empty or an old clip), refused before any work like any output directory."""
+    from sim.clip import check_clip_target
+    try:
+        check_clip_target(path)
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"{option}: {exc}") from None
+    return check_output_dir(path, option, parents=False)
+
+
 class OutputDir:
-    """An output directory made when the work starts (``with OutputDir(path) as
-    out:``), after every option was checked: an existing file is refused, a
-    directory that cannot be made is one ``ValueError`` naming ``option``, and
-    if the work fails a directory this made is removed again, so nothing
-    half-written stays. ``stale`` globs are deleted from a reused directory
-    first (old pictures must not pass for new ones)."""
+    """An output directory checked when this is made (:func:`check_output_dir`)
+    and made when the work starts (``with OutputDir(path) as out:``); if the work
+    fails a directory this made is removed again, so nothing half-written stays.
+    ``stale`` globs are deleted from a reused directory first (old pictures must
+    not pass for new ones)."""
 
     def __init__(self, path, option: str = "--output", stale=()):
-        from pathlib import Path
-        self.path, self.option, self.stale = Path(path), option, stale
-        if self.path.exists() and not self.path.is_dir():
-            raise ValueError(f"{option}: {self.path} exists and is not a directory")
+        self.path, self.option, self.stale = check_output_dir(path, option), option, stale
         self.created = False
 
     def __enter__(self):

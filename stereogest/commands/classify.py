@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import json
 
+from stereogest.commands import add_json_switch
+
 NAME = "classify"
 HELP = "classify a labelled trajectory dataset with a model file (JSON: accuracy, confusion)"
 
@@ -34,6 +36,7 @@ def add_arguments(p):
     p.add_argument("--plot", "--confusion-png", dest="confusion_png", metavar="PNG",
                    default=None,
                    help="also draw the confusion matrix, with the class names, to this PNG")
+    add_json_switch(p, always=True)
 
 
 def _front_end(option, meta) -> int | None:
@@ -71,6 +74,9 @@ def run(args) -> int:
     resample = _front_end(args.resample, models.meta)
     if args.confusion_png is not None and not str(args.confusion_png).endswith(".png"):
         raise ValueError(f"--plot must name a .png file, got {args.confusion_png!r}")
+    if args.confusion_png is not None:
+        from stereogest.commands import check_output_file
+        check_output_file(args.confusion_png, "--plot")
     data = load_trajectories(args.data)
     if len(data) == 0:
         raise ValueError(f"{args.data}: holds no trajectories")

@@ -12,6 +12,8 @@ import sys
 
 from sim.gesture_shapes import GESTURE_NAMES
 
+from stereogest.commands import add_json_switch
+
 NAME = "clip"
 HELP = "make a clip from two video files, image sequences or webcams"
 
@@ -33,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "required with cameras)")
     p.add_argument("--gesture", choices=GESTURE_NAMES, default=None,
                    help="label the clip with the gesture it shows (optional)")
-    p.add_argument("--json", action="store_true", help="print the result as a JSON last line")
+    add_json_switch(p)
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
 
 
@@ -42,6 +44,9 @@ def run(args) -> int:
 
     from sim.clip import save_clip
     from sim.footage import footage_clip
+    from stereogest.commands import check_clip_output
+
+    check_clip_output(args.output)
 
     def progress(done: int) -> None:
         if not args.quiet and done % 25 == 0:

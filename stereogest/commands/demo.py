@@ -15,7 +15,8 @@ from __future__ import annotations
 import json
 import sys
 import time
-from pathlib import Path
+
+from stereogest.commands import add_json_switch
 
 NAME = "demo"
 #: Frames of rest before the gesture: enough for the moving average and the
@@ -58,6 +59,7 @@ def add_arguments(p):
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_json_switch(p, always=True)
 
 
 def _say(quiet: bool):
@@ -68,13 +70,11 @@ def _say(quiet: bool):
 
 
 def run(args) -> int:
-    from sim.clip import save_clip
-    from sim.images import write_png
-    from sim.model.pipeline import PipelineParams, run_clip
+    from sim.model.pipeline import PipelineParams
     from sim.footage import check_option
-    from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE, render_clip
-    from stereogest.commands.pipeline import (STALE, parse_frames, progress_printer, recognise,
-                                              shipped_model_path, write_outputs)
+    from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
+    from stereogest.commands import OutputDir
+    from stereogest.commands.pipeline import shipped_model_path
     from sw_hps.hmm import load_models
 
     # Every option checked before anything is created or rendered.
@@ -97,11 +97,21 @@ def run(args) -> int:
         clip = load_clip(args.clip)
         width, height = clip.width, clip.height
     else:
-        width, height = args.width, args.height
+        clip, width, height = None, args.width, args.height
     params = PipelineParams.for_frame(width)
     params.validate(width, height)
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
+    with OutputDir(args.output) as out:
+        return _demo(args, clip, params, models, say, out)
+
+
+def _demo(args, clip, params, models, say, out) -> int:
+    from sim.clip import save_clip
+    from sim.images import write_png
+    from sim.model.pipeline import run_clip
+    from sim.render import render_clip
+    from stereogest.commands.pipeline import (STALE, parse_frames, progress_printer, recognise,
+                                              write_outputs)
+
     start = time.perf_counter()
     if args.clip is not None:
         motion = (f", motion in frames {clip.motion_frames[0]}-{clip.motion_frames[1]}"
@@ -109,7 +119,7 @@ def run(args) -> int:
         print(f"clip {args.clip}: {clip.frames} frames of {clip.width}x{clip.height}"
               + (f", labelled {clip.gesture}" if clip.gesture else "") + motion)
     else:
-        clip = render_clip(args.gesture, args.seed, width, height,
+        clip = render_clip(args.gesture, args.seed, args.width, args.height,
                            n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
         clip_dir = save_clip(clip, out / "clip")
         print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "

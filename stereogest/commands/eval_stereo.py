@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 import math
 
+from stereogest.commands import add_json_switch
+
 NAME = "eval-stereo"
 HELP = "score a disparity PNG against ground truth (JSON: pct_good, pct_invalid)"
 
@@ -20,6 +22,7 @@ def add_arguments(p):
                    help="largest error in pixels that still counts as good")
     p.add_argument("--exclude-left", type=int, default=0, metavar="N",
                    help="also report pct_good_excluding_left over columns >= N (e.g. N = D)")
+    add_json_switch(p, always=True)
 
 
 def run(args) -> int:

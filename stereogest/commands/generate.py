@@ -10,27 +10,33 @@ from __future__ import annotations
 import json
 import sys
 
+from stereogest.commands import add_json_switch, frame_size_help
+
 NAME = "generate"
 HELP = "write the Quartus / Platform Designer bundle for the DE1-SoC"
 
 
 def add_arguments(p):
-    p.add_argument("-o", "--output", "--out", dest="out", metavar="DIR", required=True,
+    p.add_argument("-o", "--output", "--out", dest="out_dir", metavar="DIR", required=True,
                    help="bundle directory (new, empty or a previous bundle); --out is the "
                         "older spelling")
-    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
-    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    frame_size_help(p)
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_json_switch(p, always=True)
 
 
 def run(args) -> int:
-    from soc.generate import generate
+    from soc.generate import check_out_dir, generate
+    from stereogest.commands import check_output_dir
+
+    check_out_dir(args.out_dir)
+    check_output_dir(args.out_dir)
 
     def progress(message):
         if not args.quiet:
             print(message, file=sys.stderr, flush=True)
 
-    info = generate(args.out, args.width, args.height, progress=progress)
+    info = generate(args.out_dir, args.width, args.height, progress=progress)
     print(f"wrote {len(info.files)} files to {info.out_dir} in {info.seconds:.1f} s; "
           f"next: see {info.out_dir}/README.md (or run quartus_build.sh there)")
     print(json.dumps({"out": str(info.out_dir), "files": list(info.files),

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from stereogest.commands import DEFAULT_SEED, check_output_file
+from stereogest.commands import DEFAULT_SEED, add_json_switch, check_output_file
 
 NAME = "gestures"
 HELP = "write a synthetic corpus of gesture trajectories (hand centroids per frame)"
@@ -37,8 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the durations scale with it (15-30 rest "
                              "and 40-80 motion frames at 30 fps)")
-    parser.add_argument("--json", action="store_true",
-                        help="also print the result as a JSON last line")
+    add_json_switch(parser)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 import threading
 
+from stereogest.commands import add_json_switch
+
 NAME = "live"
 HELP = "live view: golden model and recogniser on webcams, videos or a clip, in a browser"
 
@@ -21,10 +23,11 @@ def add_arguments(p):
     p.add_argument("--right", metavar="SOURCE", default=None, help="right camera, as --left")
     p.add_argument("--clip", metavar="CLIP", default=None,
                    help="replay a clip instead ('stereogest render' or 'stereogest clip')")
-    p.add_argument("--width", type=int, default=320,
-                   help="frame width for --left/--right (even, 96..4096)")
-    p.add_argument("--height", type=int, default=240,
-                   help="frame height for --left/--right (64..4096)")
+    p.add_argument("--width", type=int, default=None,
+                   help="frame width for --left/--right (even, 96..4096; default: 320; a "
+                        "clip has its own)")
+    p.add_argument("--height", type=int, default=None,
+                   help="frame height for --left/--right (64..4096; default: 240)")
     p.add_argument("--port", type=int, default=8642,
                    help="port of the page on 127.0.0.1 (0..65535; 0: any free port)")
     p.add_argument("--fps", type=int, default=None,
@@ -36,9 +39,12 @@ def add_arguments(p):
                    help="stop after this many frame pairs and exit (1..1800)")
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file (default: the one shipped in sw_hps/models)")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads for the stereo cost stage (default: CPUs, at most 4)")
+    p.add_argument("--threads", type=int, default=1,
+                   help="worker threads for the stereo cost stage, 1..64 (default 1: at "
+                        "320x240 one thread beat two on a 2-core machine in CPU and wall "
+                        "time, benchmarks/bench_live.py)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_json_switch(p)
 
 
 def run(args) -> int:
@@ -53,11 +59,15 @@ def run(args) -> int:
     if (args.clip is None) == (args.left is None and args.right is None) or \
             (args.clip is None and (args.left is None or args.right is None)):
         raise ValueError("give either --clip CLIP or both --left and --right")
+    for option, value in (("--width", args.width), ("--height", args.height)):
+        if args.clip is not None and value is not None:
+            raise ValueError(f"{option} applies to --left/--right; a clip keeps its own size")
     if args.fps is not None:
         check_option("--fps", args.fps, 1, 1000)
     if args.frames is not None:
         check_option("--frames", args.frames, 1, MAX_FRAMES)
     check_option("--port", args.port, 0, 65535)
+    check_option("--threads", args.threads, 1, 64)
     models = load_models(args.model or shipped_model_path())
     if args.clip is not None:
         from sim.clip import load_clip
@@ -67,9 +77,10 @@ def run(args) -> int:
         pairs = ((clip.left[n], clip.right[n]) for n in range(count))
         source, closer = f"clip {args.clip}", None
     else:
-        closer = StereoSource(args.left, args.right, width=args.width, height=args.height,
+        width, height = args.width or 320, args.height or 240
+        closer = StereoSource(args.left, args.right, width=width, height=height,
                               frames=args.frames)
-        width, height, pairs = args.width, args.height, closer
+        pairs = closer
         native_fps = None if closer.camera else (closer.fps or 30)
         source = f"{closer.sources[0].kind} and {closer.sources[1].kind}"
     params = PipelineParams.for_frame(width)
@@ -123,4 +134,10 @@ def run(args) -> int:
         server.close()
         if closer is not None:
             closer.close()
+    if args.json:
+        import json
+        state, _ = session.snapshot()
+        print(json.dumps({"source": source, "width": width, "height": height,
+                          "frames": session.frames, "recognised": state["recognised"],
+                          "telegram": state["telegram"]}), flush=True)
     return 0

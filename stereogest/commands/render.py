@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from sim.gesture_shapes import GESTURE_NAMES
-from stereogest.commands import DEFAULT_SEED
+from stereogest.commands import DEFAULT_SEED, add_json_switch
 
 NAME = "render"
 HELP = "render a synthetic stereo clip of one gesture"
@@ -39,15 +39,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the rest and motion durations scale "
                              "with it (15-30 rest and 40-80 motion frames at 30 fps)")
-    parser.add_argument("--json", action="store_true",
-                        help="also print the result as a JSON last line")
+    add_json_switch(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     # Imported here so that `stereogest --help` stays fast.
     from sim.clip import save_clip
     from sim.render import render_clip
+    from stereogest.commands import check_clip_output
 
+    check_clip_output(args.output)
     clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps)
     path = save_clip(clip, args.output)
     first, last = clip.motion_frames

@@ -8,14 +8,17 @@ from __future__ import annotations
 import json
 import sys
 
+from stereogest.commands import frame_size_help
+
 NAME = "resources"
 HELP = "yosys resource estimate of the whole FPGA design beside thesis Table 23 (JSON)"
 
 
 def add_arguments(p):
-    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
-    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    frame_size_help(p)
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--json", action="store_true",
+                   help="print the result as one JSON line (instead of indented)")
 
 
 def run(args) -> int:
@@ -29,5 +32,5 @@ def run(args) -> int:
             print(text, file=sys.stderr, flush=True)
 
     report = estimate(args.width, args.height, progress=progress)
-    print(json.dumps(report, indent=2))
+    print(json.dumps(report) if args.json else json.dumps(report, indent=2))
     return 0 if report["fits"] else 1

@@ -10,6 +10,8 @@ import json
 import time
 from pathlib import Path
 
+from stereogest.commands import add_json_switch
+
 NAME = "stereo"
 BACKENDS = ("model", "amaranth", "verilator")
 #: The Amaranth simulator runs a few thousand cycles per second.
@@ -49,12 +51,16 @@ def add_arguments(p):
                         f"{AMARANTH_MAX_PIXELS} pixels); verilator: the emitted Verilog "
                         "under Verilator (first use of a parameter set builds it, cached "
                         "under build/verilator/)")
+    add_json_switch(p, always=True)
 
 
 def run(args) -> int:
     from sim.images import read_grey, write_png
     from sim.model.stereo import stereo_match
+    from stereogest.commands import check_output_file
 
+    check_output_file(args.output)
+    check_output_file(preview_path(args.output), "--output (its preview)")
     left = read_grey(args.left)
     right = read_grey(args.right)
     if left.shape != right.shape:

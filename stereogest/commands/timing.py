@@ -16,7 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from stereogest.commands import DEFAULT_SEED
+from stereogest.commands import DEFAULT_SEED, frame_size_help
 
 NAME = "timing"
 HELP = "place and route on an ECP5 (nextpnr) and report Fmax per block and clock"
@@ -33,8 +33,7 @@ def add_arguments(p):
     p.add_argument("--block", default="all", metavar="NAME",
                    help="a block, 'all' (every block alone), 'ci' (the part make test runs), "
                         "'matcher' or 'pipeline'; one of: " + ", ".join(_choices()))
-    p.add_argument("--width", type=int, default=640, help="frame width in pixels (even)")
-    p.add_argument("--height", type=int, default=480, help="frame height in pixels")
+    frame_size_help(p)
     p.add_argument("--census-window", type=int, default=d.census_window, metavar="WC",
                    help="census window Wc (odd)")
     p.add_argument("--hamming-window", type=int, default=d.hamming_window, metavar="WH",
@@ -48,25 +47,15 @@ def add_arguments(p):
                    help="nextpnr router")
     p.add_argument("--timeout", type=float, default=None, metavar="S",
                    help="seconds each tool run may take (default: no limit)")
-    p.add_argument("--json", metavar="FILE", default=None, help="also write the figures here")
+    p.add_argument("-o", "--output", metavar="FILE", default=None,
+                   help="also write the figures (JSON) here")
+    p.add_argument("--json", nargs="?", const=True, default=False, metavar="FILE",
+                   help="also print the figures as a JSON last line; '--json FILE' is the "
+                        "older spelling of -o FILE")
     p.add_argument("--keep", metavar="DIR", default=None,
                    help="keep each run's files (RTLIL, netlist, LPF, nextpnr log and report) "
                         "in DIR/<block>")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-
-
-def _check_output(path: str | None, what: str) -> Path | None:
-    if path is None:
-        return None
-    out = Path(path)
-    if out.is_dir():
-        raise ValueError(f"{what} {path!r} is a directory")
-    parent = out.resolve().parent
-    if not parent.is_dir():
-        raise ValueError(f"{what} {path!r}: directory {str(parent)!r} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise ValueError(f"{what} {path!r}: directory {str(parent)!r} is not writable")
-    return out
 
 
 def _write_atomic(path: Path, text: str) -> None:
@@ -106,14 +95,18 @@ def run(args) -> int:
     from hdl.synthesis import find_yosys
     from sim.model.pipeline import PipelineParams
     from soc.clocks import PCLK_HZ, SYNC_HZ
+    from stereogest.commands import check_output_dir, check_output_file
 
     if args.block not in _choices():
         raise ValueError(f"--block must be one of {', '.join(_choices())}, got {args.block!r}")
-    if args.width % 2:
-        raise ValueError(f"--width must be even (4:2:2 pixel pairs), got {args.width}")
+    # Thresholds below D follow a smaller --max-disparity (they hardly move the timing).
+    defaults = PipelineParams()
     params = PipelineParams(census_window=args.census_window,
                             hamming_window=args.hamming_window,
-                            max_disparity=args.max_disparity, opening_size=args.opening_size)
+                            max_disparity=args.max_disparity, opening_size=args.opening_size,
+                            lrcc_threshold=max(1, min(defaults.lrcc_threshold,
+                                                      args.max_disparity)),
+                            band_low=max(0, min(defaults.band_low, args.max_disparity - 3)))
     try:
         params.validate(args.width, args.height)
     except ValueError as exc:
@@ -125,12 +118,13 @@ def run(args) -> int:
     check_int("--seed", args.seed, 1, 2 ** 31 - 1)
     if args.timeout is not None and not 1 <= args.timeout <= 86_400:
         raise ValueError(f"--timeout must be in [1, 86400] seconds, got {args.timeout:g}")
-    json_out = _check_output(args.json, "--json")
-    keep = None
-    if args.keep is not None:
-        keep = Path(args.keep)
-        if not keep.is_dir():
-            _check_output(args.keep, "--keep")     # a new directory: its parent must do
+    output_option = "--output"
+    if isinstance(args.json, str):                    # the older `--json FILE`
+        if args.output is not None:
+            raise ValueError("--json FILE is the older spelling of -o/--output FILE; give one")
+        args.output, args.json, output_option = args.json, False, "--json"
+    json_out = None if args.output is None else check_output_file(args.output, output_option)
+    keep = None if args.keep is None else check_output_dir(args.keep, "--keep", parents=False)
     find_yosys()
     find_nextpnr()
 
@@ -163,4 +157,6 @@ def run(args) -> int:
     print(table(results))
     if json_out is not None:
         _write_atomic(json_out, json.dumps(report, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(report))
     return 0 if report["passed"] else 1

@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from stereogest.commands import DEFAULT_SEED, check_output_file
+from stereogest.commands import DEFAULT_SEED, add_json_switch, check_output_file
 
 NAME = "train"
 HELP = "train the gesture HMMs (optionally choosing the number of states by cross-validation)"
@@ -102,6 +102,7 @@ def add_arguments(p):
                    help="cross-validation report PREFIX.json and PREFIX.png "
                         "(default: MODEL without .json, plus -cv)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_json_switch(p, always=True)
 
 
 def parse_state_range(text: str) -> list[int]:
