@@ -27,7 +27,7 @@ def main(argv=None):
         ap.error(f"--frames must be at least 10, got {args.frames}")
     from sim.model.pipeline import PipelineParams
     from sim.render import render_clip
-    from stereogest.commands.pipeline import shipped_model_path
+    from stereogest.pipeline_outputs import shipped_model_path
     from stereogest.live import LiveSession
     from sw_hps.hmm import load_models
 

@@ -31,7 +31,7 @@ GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "
 
 
 def _models(path):
-    from stereogest.commands.pipeline import shipped_model_path
+    from stereogest.pipeline_outputs import shipped_model_path
     from sw_hps.hmm import load_models
     return load_models(path or shipped_model_path())
 
@@ -67,7 +67,7 @@ def model_clip(gesture, seed, width, height, model=None):
     application on a simulated FIFO, as ``stereogest demo --backend model``."""
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
-    from sw_hps.app import run_on_trajectory
+    from sw_hps.simulated import run_on_trajectory
 
     models = _models(model)
     params = PipelineParams.for_frame(width)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Mux, Signal, signed
 
-from sim.model._check import check_int, check_odd_window
+from sim.model.validation import check_int, check_odd_window
 
 __all__ = ["check_int", "check_odd_window", "check_geometry", "delay", "replicate",
            "KEEP_REGISTER", "RasterPosition",

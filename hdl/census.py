@@ -49,7 +49,8 @@ class SparseCensus(wiring.Component):
         self.separation = check_int("separation", separation, 0, 200)
         self.offsets = census_offsets(self.census_window)
         self.bits = len(self.offsets)
-        self._window = WindowGenerator(width, height, pixel_bits, census_window, separation)
+        self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=census_window,
+                                       separation=separation)
         self.lag = self._window.lag
         self.cycles = self._window.cycles + 1
         self.memory_bits = self._window.memory_bits

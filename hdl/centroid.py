@@ -58,8 +58,8 @@ class Centroid(wiring.Component):
     def __init__(self, width: int, height: int):
         self.width, self.height = check_geometry(width, height)
         self.widths = moment_widths(self.width, self.height)
-        self._div_x = UnsignedDivider(self.widths.m10, self.widths.m00)
-        self._div_y = UnsignedDivider(self.widths.m01, self.widths.m00)
+        self._div_x = UnsignedDivider(dividend_bits=self.widths.m10, divisor_bits=self.widths.m00)
+        self._div_y = UnsignedDivider(dividend_bits=self.widths.m01, divisor_bits=self.widths.m00)
         self.cycles_after_frame = max(self._div_x.cycles, self._div_y.cycles) + 2
         # The dividers latch the moments on the start; the next start (one frame
         # later) must find them idle, so a frame must outlast a division.

@@ -71,7 +71,7 @@ class BeatDelay(wiring.Component):
             # RowBuffer lanes hold at most 16 bits: split wide values.
             lanes = -(-self.bits // PIXEL_BITS_RANGE[1])
             self._lanes, self._lane_bits = lanes, -(-self.bits // lanes)
-            self._buffer = RowBuffer(self.beats - 1, lanes, self._lane_bits)
+            self._buffer = RowBuffer(length=self.beats - 1, lanes=lanes, pixel_bits=self._lane_bits)
             self.memory_bits = self._buffer.memory_bits
         else:
             self._buffer = None

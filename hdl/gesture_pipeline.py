@@ -104,20 +104,24 @@ class GesturePipeline(wiring.Component):
         p = params
         self._capture = [CameraCapture(width, height) for _ in range(2)]
         self._to444 = [YCbCr422To444(width, height) for _ in range(2)]
-        self._median = [Median3x3(width, height, 8) for _ in range(2)]
-        self._matcher = StereoMatcher(width, height, p.census_window, p.hamming_window,
-                                      p.max_disparity, 8, p.no_match_cost,
-                                      external_flush=True)
+        self._median = [Median3x3(width, height, pixel_bits=8) for _ in range(2)]
+        self._matcher = StereoMatcher(width, height, census_window=p.census_window,
+                                      hamming_window=p.hamming_window,
+                                      max_disparity=p.max_disparity, pixel_bits=8,
+                                      no_match_cost=p.no_match_cost, external_flush=True)
         med, mat = self._median[0], self._matcher
         self._segment = HandSegmentation(
-            width, height, p.max_disparity, p.skin_cb, p.skin_cr, p.band_low, p.band_high,
+            width, height, max_disparity=p.max_disparity, skin_cb=p.skin_cb, skin_cr=p.skin_cr,
+            band_low=p.band_low, band_high=p.band_high,
             skin_delay_beats=med.lag + mat.lag, skin_delay_cycles=med.cycles + mat.cycles)
-        self._opening = Opening(width, height, p.opening_shape, p.opening_size)
+        self._opening = Opening(width, height, element=p.opening_shape, size=p.opening_size)
         self._centroid = Centroid(width, height)
         coord = bits_for(max(width, height) - 1)
-        self._average = MovingAverage(coord, p.average_window, p.frac_bits)
-        self._spotting = GestureSpotting(coord + p.frac_bits, p.spot_window, p.spot_threshold,
-                                         p.spot_hold, p.frac_bits)
+        self._average = MovingAverage(coord_bits=coord, window=p.average_window,
+                                      frac_bits=p.frac_bits)
+        self._spotting = GestureSpotting(point_bits=coord + p.frac_bits, window=p.spot_window,
+                                         threshold=p.spot_threshold, hold=p.spot_hold,
+                                         frac_bits=p.frac_bits)
         pixel_stages = [self._to444[0], med, mat, self._segment, self._opening]
         #: flush beats per frame: the look-ahead of every window stage
         self.flush = sum(getattr(s, "lag", 0) for s in pixel_stages)

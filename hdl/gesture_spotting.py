@@ -29,7 +29,7 @@ FRAC_BITS_RANGE = (0, 16)
 
 
 class GestureSpotting(wiring.Component):
-    """Per-frame gesture flag, bit for bit :func:`sim.model.features.gesture_spotting`.
+    """Per-frame gesture flag, bit for bit :func:`sim.model.gesture_spotting.gesture_spotting`.
 
     Parameters
     ----------

@@ -41,7 +41,7 @@ class Median3x3(wiring.Component):
     def __init__(self, width: int, height: int, pixel_bits: int = 8):
         self.width, self.height = check_geometry(width, height)
         self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
-        self._window = WindowGenerator(width, height, pixel_bits, 3)
+        self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=3)
         self.lag = self._window.lag
         self.cycles = self._window.cycles + TAPS + 1
         self.memory_bits = self._window.memory_bits

@@ -17,29 +17,14 @@ from amaranth.hdl import Cat, Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.morphology import SHAPES, _resolve_element, structuring_element
+from sim.model.morphology import resolve_element
 
-from ._util import check_geometry, check_odd_window, delay
+from ._util import check_geometry, delay
 from .window import WindowGenerator
 
-__all__ = ["BinaryMorphology", "resolve_element", "FANIN"]
+__all__ = ["BinaryMorphology", "FANIN"]
 
 FANIN = 6
-SIZE_RANGE = (3, 63)
-
-
-def resolve_element(element, size: int) -> np.ndarray:
-    """The element as a (k, k) bool array: a name of
-    :data:`sim.model.morphology.SHAPES` built at ``size``, or an explicit odd
-    square array (``size`` is then not used). Raises ``ValueError`` naming
-    ``element`` or ``size``."""
-    if isinstance(element, str):
-        if element not in SHAPES:
-            raise ValueError(f"element must be one of {SHAPES} or an odd square bool array, "
-                             f"got {element!r}")
-        size = check_odd_window("size", size, *SIZE_RANGE)
-        return structuring_element(element, size)
-    return _resolve_element(element, None)
 
 
 class BinaryMorphology(wiring.Component):
@@ -76,7 +61,7 @@ class BinaryMorphology(wiring.Component):
     """
 
     def __init__(self, width: int, height: int, element="cross", size: int = 11):
-        self.element = resolve_element(element, size)
+        self.element = resolve_element(element, size if isinstance(element, str) else None)
         self.size = self.element.shape[0]
         self.width, self.height = check_geometry(width, height, min_width=self.size + 2)
         self.taps = int(self.element.sum())
@@ -85,7 +70,7 @@ class BinaryMorphology(wiring.Component):
             n = -(-n // FANIN)
             levels += 1
         self.tree_levels = levels
-        self._window = WindowGenerator(self.width, self.height, 1, self.size)
+        self._window = WindowGenerator(self.width, self.height, pixel_bits=1, window=self.size)
         self.lag = self._window.lag
         self.cycles = self._window.cycles + 1 + levels + 1
         self.memory_bits = self._window.memory_bits

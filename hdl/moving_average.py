@@ -23,7 +23,7 @@ FRAC_BITS_RANGE = (0, 16)
 
 class MovingAverage(wiring.Component):
     """Per-frame smoothing of the centroid, bit for bit
-    :func:`sim.model.features.moving_average`.
+    :func:`sim.model.moving_average.moving_average`.
 
     Parameters
     ----------

@@ -40,8 +40,8 @@ class Opening(wiring.Component):
     """
 
     def __init__(self, width: int, height: int, element="cross", size: int = 11):
-        self._erosion = BinaryMorphology(width, height, element, size)
-        self._dilation = BinaryMorphology(width, height, element, size)
+        self._erosion = BinaryMorphology(width, height, element=element, size=size)
+        self._dilation = BinaryMorphology(width, height, element=element, size=size)
         self.width, self.height = self._erosion.width, self._erosion.height
         self.element = self._erosion.element
         self.size = self._erosion.size

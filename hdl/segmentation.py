@@ -15,7 +15,8 @@ from amaranth.hdl import Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.segmentation import _check_range, check_band
+from sim.model.segmentation import check_band
+from sim.model.validation import check_byte_range
 
 from ._util import bits_for, check_geometry, check_int, delay
 from .delay_line import BEATS_RANGE, CYCLES_RANGE, BeatDelay
@@ -76,8 +77,8 @@ class HandSegmentation(wiring.Component):
         self.width, self.height = check_geometry(width, height)
         self.band_low, self.band_high, self.max_disparity = check_band(
             band_low, band_high, max_disparity, names=("band_low", "band_high"))
-        self.skin_cb = _check_range("skin_cb", skin_cb)
-        self.skin_cr = _check_range("skin_cr", skin_cr)
+        self.skin_cb = check_byte_range("skin_cb", skin_cb)
+        self.skin_cr = check_byte_range("skin_cr", skin_cr)
         self.skin_delay_beats = check_int("skin_delay_beats", skin_delay_beats, *BEATS_RANGE)
         # The implementation needs no cycle (the comparators can feed the line
         # directly); from one cycle on they get their own register.
@@ -85,8 +86,8 @@ class HandSegmentation(wiring.Component):
                                            *CYCLES_RANGE)
         self.skin_stages = min(1, self.skin_delay_cycles)
         self.disparity_bits = bits_for(self.max_disparity - 1)
-        self._line = BeatDelay(1, self.skin_delay_beats,
-                               self.skin_delay_cycles - self.skin_stages)
+        self._line = BeatDelay(bits=1, beats=self.skin_delay_beats,
+                               cycles=self.skin_delay_cycles - self.skin_stages)
         self.memory_bits = self._line.memory_bits
         super().__init__({
             "i_chroma": In(stream.Signature(data.StructLayout(

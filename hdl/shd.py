@@ -60,8 +60,10 @@ class SumOfHammingDistances(wiring.Component):
             no_match_cost = census_bits // 3
         self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, census_bits)
         nd, w, h, wh = self.max_disparity, self.width, self.height, self.hamming_window
-        self._columns = ColumnSum(w, h, wh, nd, census_bits, self.no_match_cost)
-        self._windows = WindowSum(w, h, wh, nd, wh * census_bits)
+        self._columns = ColumnSum(w, h, hamming_window=wh, max_disparity=nd, max_term=census_bits,
+                                  no_match_cost=self.no_match_cost)
+        self._windows = WindowSum(w, h, hamming_window=wh, max_disparity=nd,
+                                  max_term=wh * census_bits)
         # one bank of D distances for the entering rows (V1), one for the leaving (V2)
         self._ham = [HammingDistances(census_bits, codes=nd) for _ in range(2)]
         self.lag = self._columns.lag + self._windows.lag

@@ -94,11 +94,14 @@ class StereoMatcher(wiring.Component):
         self.external_flush = bool(external_flush)
         w, h = self.width, self.height
 
-        self._census = [SparseCensus(w, h, wc, pixel_bits, separation=wh) for _ in range(2)]
-        self._shd = SumOfHammingDistances(w, h, self.census_bits, wh, nd, self.no_match_cost)
-        self._select = DisparitySelectors(w, h, nd, self._shd.cost_bits)
-        self._check = LeftRightCheck(w, h, nd)
-        self._median = Median3x3(w, h, self._check.disparity_bits) if disparity_median else None
+        self._census = [SparseCensus(w, h, census_window=wc, pixel_bits=pixel_bits, separation=wh)
+                        for _ in range(2)]
+        self._shd = SumOfHammingDistances(w, h, census_bits=self.census_bits, hamming_window=wh,
+                                          max_disparity=nd, no_match_cost=self.no_match_cost)
+        self._select = DisparitySelectors(w, h, max_disparity=nd, cost_bits=self._shd.cost_bits)
+        self._check = LeftRightCheck(w, h, max_disparity=nd)
+        self._median = (Median3x3(w, h, pixel_bits=self._check.disparity_bits)
+                        if disparity_median else None)
         stages = [self._census[0], self._shd, self._select, self._check]
         if self._median is not None:
             stages.append(self._median)

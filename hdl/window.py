@@ -103,7 +103,7 @@ class WindowGenerator(wiring.Component):
         for name, rows, length in (("short", short, w - win), ("long", long_, w)):
             if not rows:
                 continue
-            rb = RowBuffer(length, len(rows), pb)
+            rb = RowBuffer(length=length, lanes=len(rows), pixel_bits=pb)
             m.submodules[f"rows_{name}"] = rb
             m.d.comb += rb.beat.eq(beat)
             for lane, k in enumerate(rows):

@@ -61,6 +61,7 @@ import numpy as np
 from recognition.datasets import TrajectorySet
 from sim.gesture_shapes import GESTURE_NAMES, gesture_id, gesture_path, random_time_warp
 from sim.model.pipeline import PipelineParams, track
+from sim.model.validation import check_int
 
 __all__ = ["PersonStyle", "SyntheticCorpus", "person_style", "generate_corpus",
            "synthetic_corpus", "spotted_coverage", "CORPUS_LIMITS"]
@@ -165,14 +166,6 @@ class SyntheticCorpus:
     people: tuple[PersonStyle, ...]
 
 
-def _check_int(name: str, value) -> int:
-    lo, hi = CORPUS_LIMITS[name]
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
-            or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
-    return int(value)
-
-
 def _scale(width: int, height: int) -> float:
     return min(width / _REFERENCE_WIDTH, height / _REFERENCE_HEIGHT)
 
@@ -199,13 +192,13 @@ def person_style(seed: int, person: int, width: int = 640, height: int = 480,
     ValueError
         A parameter out of range (the message names it).
     """
-    seed = _check_int("seed", seed)
+    seed = check_int("seed", seed, *CORPUS_LIMITS["seed"])
     people_max = CORPUS_LIMITS["people"][1]
     if isinstance(person, bool) or not isinstance(person, numbers.Integral) \
             or not 0 <= person < people_max:
         raise ValueError(f"person must be an integer in [0, {people_max - 1}], got {person!r}")
-    width, height, fps = (_check_int("width", width), _check_int("height", height),
-                          _check_int("fps", fps))
+    width, height, fps = (check_int("width", width, *CORPUS_LIMITS["width"]), check_int("height", height, *CORPUS_LIMITS["height"]),
+                          check_int("fps", fps, *CORPUS_LIMITS["fps"]))
     rng = np.random.default_rng([seed, _STREAM_PERSON, person])
     scale = _scale(width, height)
     rate = fps / 30.0
@@ -361,11 +354,11 @@ def generate_corpus(per_class: int = 180, people: int = 3, seed: int = 0, width:
     SyntheticCorpus
         ``data`` and the motion span, amplitude and dropped-frame count of every sample.
     """
-    per_class = _check_int("per_class", per_class)
-    people = _check_int("people", people)
-    seed = _check_int("seed", seed)
-    width, height = _check_int("width", width), _check_int("height", height)
-    fps = _check_int("fps", fps)
+    per_class = check_int("per_class", per_class, *CORPUS_LIMITS["per_class"])
+    people = check_int("people", people, *CORPUS_LIMITS["people"])
+    seed = check_int("seed", seed, *CORPUS_LIMITS["seed"])
+    width, height = check_int("width", width, *CORPUS_LIMITS["width"]), check_int("height", height, *CORPUS_LIMITS["height"])
+    fps = check_int("fps", fps, *CORPUS_LIMITS["fps"])
     styles = tuple(person_style(seed, p, width, height, fps) for p in range(people))
 
     trajectories, labels, subjects, spans, amplitudes, dropped = [], [], [], [], [], []

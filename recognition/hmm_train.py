@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from sim.model.validation import check_int
 from sw_hps.hmm import DiscreteHMM, GestureModels
 
 __all__ = ["MAX_STATES", "TrainingReport", "initial_model", "baum_welch", "train_models",
@@ -38,14 +39,6 @@ DEFAULT_TOL = 1e-4
 DEFAULT_MAX_ITER = 5000
 #: Expected sequence length T of eq. 29-33.
 DEFAULT_EXPECTED_LENGTH = 60
-
-
-def _check_int(name: str, value, lo: int, hi: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or value < lo or (hi is not None and value > hi):
-        allowed = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
-        raise ValueError(f"{name} must be an integer in {allowed}, got {value!r}")
-    return int(value)
 
 
 def initial_model(num_states: int, num_symbols: int = 8,
@@ -73,9 +66,9 @@ def initial_model(num_states: int, num_symbols: int = 8,
     ValueError
         Naming the parameter out of range.
     """
-    n = _check_int("num_states", num_states, 1, MAX_STATES)
-    m = _check_int("num_symbols", num_symbols, 1)
-    t = _check_int("expected_length", expected_length, 1)
+    n = check_int("num_states", num_states, 1, MAX_STATES)
+    m = check_int("num_symbols", num_symbols, 1)
+    t = check_int("expected_length", expected_length, 1)
     if n > t:
         raise ValueError(f"num_states must be <= expected_length = {t} (d = T/N >= 1), "
                          f"got {n}")
@@ -340,7 +333,7 @@ def _check_options(tol, max_iter, emission_floor, num_symbols: int) -> None:
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating, np.integer)) \
             or not math.isfinite(tol) or tol < 0:
         raise ValueError(f"tol must be a finite number >= 0, got {tol!r}")
-    _check_int("max_iter", max_iter, 0)
+    check_int("max_iter", max_iter, 0)
     if isinstance(emission_floor, bool) \
             or not isinstance(emission_floor, (int, float, np.floating, np.integer)) \
             or not 0.0 <= emission_floor < 1.0 / num_symbols:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from recognition.datasets import TrajectorySet
+from sim.model.validation import check_int
 
 __all__ = ["NONE_LABEL", "random_walks", "scribbles", "wandering_hands", "as_centroid_tracks"]
 
@@ -24,10 +25,8 @@ NONE_LABEL = "none"
 
 
 def _check(count, seed):
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise ValueError(f"count must be an integer >= 1, got {count!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    check_int("count", count, 1)
+    check_int("seed", seed, 0)
 
 
 def _pen_paths(count: int, seed: int, points: tuple[int, int], draw) -> TrajectorySet:

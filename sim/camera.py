@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .model._check import check_image, check_int
+from .model.validation import check_image, check_int
 
 __all__ = ["CameraTiming", "CameraWaveform", "camera_waveform", "cut_frame", "href_glitch",
            "vsync_in_line", "stop_frame", "pack_pins", "capture_words", "WORD_DTYPE"]

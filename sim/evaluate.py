@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.model._check import check_int, check_same_shape
+from sim.model.validation import check_int, check_same_shape
 
 __all__ = ["score_disparity"]
 

@@ -32,11 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from sim.clip import Clip
+from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
 from sim.render import HEIGHT_RANGE, WIDTH_RANGE
 
 __all__ = ["bgr_to_ycbcr", "frame_to_422", "frame_to_bgr", "FrameSource",
-           "StereoSource", "footage_clip", "check_option",
+           "StereoSource", "footage_clip",
            "IMAGE_SUFFIXES", "WIDTH_RANGE", "HEIGHT_RANGE", "MAX_FRAMES", "CONVERSION"]
 
 #: Image files an image-sequence folder is read from.
@@ -181,12 +182,12 @@ class StereoSource:
 
     def __init__(self, left: str, right: str, *, width: int = 640, height: int = 480,
                  frames: int | None = None):
-        check_option("--width", width, *WIDTH_RANGE)
+        check_int("--width", width, *WIDTH_RANGE)
         if width % 2:
             raise ValueError(f"--width must be even (4:2:2 pixel pairs), got {width}")
-        check_option("--height", height, *HEIGHT_RANGE)
+        check_int("--height", height, *HEIGHT_RANGE)
         if frames is not None:
-            check_option("--frames", frames, 1, MAX_FRAMES)
+            check_int("--frames", frames, 1, MAX_FRAMES)
         self.width, self.height, self.frames = width, height, frames
         self.sources = []
         try:
@@ -250,7 +251,7 @@ def footage_clip(left: str, right: str, *, width: int = 640, height: int = 480,
     """
     from sim.gesture_shapes import GESTURE_NAMES
     if fps is not None:
-        check_option("--fps", fps, 1, 1000)
+        check_int("--fps", fps, 1, 1000)
     if gesture is not None and gesture not in GESTURE_NAMES:
         raise ValueError(f"--gesture must be one of {', '.join(GESTURE_NAMES)}, got {gesture!r}")
     with StereoSource(left, right, width=width, height=height,
@@ -272,11 +273,3 @@ def footage_clip(left: str, right: str, *, width: int = 640, height: int = 480,
         rate = fps or pairs.fps or 30
     return Clip(fps=rate, left=np.stack(streams[0]), right=np.stack(streams[1]),
                 gesture=gesture, source=source)
-
-
-def check_option(option: str, value, lo: int, hi: int) -> int:
-    """``value`` as an int if it is one in [lo, hi]; else ValueError naming ``option``."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or not lo <= value <= hi:
-        raise ValueError(f"{option} must be an integer in [{lo}, {hi}], got {value!r}")
-    return int(value)

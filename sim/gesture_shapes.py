@@ -68,6 +68,7 @@ from typing import Callable
 
 import numpy as np
 
+from soc.hps_interface import GESTURE_NAMES   # the class order the board app shares
 from sw_hps.orientation import orientation_symbols
 
 __all__ = [
@@ -76,8 +77,6 @@ __all__ = [
     "direction_names",
 ]
 
-#: The seven gestures of thesis Fig. 16; the index of a name is its class id.
-GESTURE_NAMES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
 
 #: Accepted values of ``speed_profile`` in :func:`gesture_path`.
 SPEED_PROFILES = ("smooth", "constant")

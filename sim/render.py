@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import functools
 import math
-import numbers
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -46,6 +45,7 @@ import numpy as np
 
 from sim.clip import MAX_DISPARITY, Clip, round_truth
 from sim.gesture_shapes import gesture_id, gesture_path, random_time_warp
+from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
 
 __all__ = [
@@ -181,13 +181,6 @@ class _Layer:
         return LAYER_LABELS[self.name]
 
 
-def _check_int(name: str, value, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
-            or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
-    return int(value)
-
-
 class StereoScene:
     """A rendered-on-demand stereo scene of one gesture (see the module docstring).
 
@@ -242,21 +235,21 @@ class StereoScene:
                  noise: bool = True) -> None:
         self.gesture_id = gesture_id(gesture)
         self.gesture = gesture
-        self.seed = _check_int("seed", seed, 0, 2 ** 63 - 1)
-        self.width = _check_int("width", width, *WIDTH_RANGE)
-        self.height = _check_int("height", height, *HEIGHT_RANGE)
+        self.seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+        self.width = check_int("width", width, *WIDTH_RANGE)
+        self.height = check_int("height", height, *HEIGHT_RANGE)
         if self.width % 2:
             raise ValueError(f"width must be even, in [{WIDTH_RANGE[0]}, {WIDTH_RANGE[1]}] "
                              f"(4:2:2 pixel pairs), got {width}")
         if self.height % 2:
             raise ValueError(f"height must be even, in [{HEIGHT_RANGE[0]}, {HEIGHT_RANGE[1]}], "
                              f"got {height}")
-        self.fps = _check_int("fps", fps, 5, 240)
+        self.fps = check_int("fps", fps, 5, 240)
         top = MAX_DISPARITY - 1
         self.disparities = {
-            "hand": _check_int("hand_disparity", hand_disparity, 0, top),
-            "face": _check_int("face_disparity", face_disparity, 0, top),
-            "torso": _check_int("torso_disparity", torso_disparity, 0, top),
+            "hand": check_int("hand_disparity", hand_disparity, 0, top),
+            "face": check_int("face_disparity", face_disparity, 0, top),
+            "torso": check_int("torso_disparity", torso_disparity, 0, top),
         }
         self.noise = bool(noise)
         self.scale = min(self.width / REFERENCE_WIDTH, self.height / REFERENCE_HEIGHT)
@@ -264,7 +257,7 @@ class StereoScene:
         layout = self._rng(_STREAM_LAYOUT)
         if background_disparity is None:
             background_disparity = int(layout.integers(4, 11))
-        self.disparities["background"] = _check_int("background_disparity",
+        self.disparities["background"] = check_int("background_disparity",
                                                     background_disparity, 0, top)
         self.disparities["hair"] = self.disparities["face"]
         self._layout(layout)
@@ -356,11 +349,11 @@ class StereoScene:
         pre = frames_in(_PRE_REST_S, 1)
         motion = frames_in(_MOTION_S, 2)
         post = frames_in(_PRE_REST_S, 1)
-        pre = pre if n_pre_rest is None else _check_int("n_pre_rest", n_pre_rest, 0,
+        pre = pre if n_pre_rest is None else check_int("n_pre_rest", n_pre_rest, 0,
                                                            MAX_SEGMENT_FRAMES)
-        motion = motion if n_motion is None else _check_int("n_motion", n_motion, 2,
+        motion = motion if n_motion is None else check_int("n_motion", n_motion, 2,
                                                                MAX_SEGMENT_FRAMES)
-        post = post if n_post_rest is None else _check_int("n_post_rest", n_post_rest, 0,
+        post = post if n_post_rest is None else check_int("n_post_rest", n_post_rest, 0,
                                                               MAX_SEGMENT_FRAMES)
         self.n_pre_rest, self.n_motion, self.n_post_rest = pre, motion, post
         self.frames = pre + motion + post
@@ -534,7 +527,7 @@ class StereoScene:
     # ---------------------------------------------------------------- per frame
 
     def _check_frame(self, frame) -> int:
-        return _check_int("frame", frame, 0, self.frames - 1)
+        return check_int("frame", frame, 0, self.frames - 1)
 
     def _hand_region(self, frame: int, shift: int):
         """View and sprite slices of the hand in a view whose layer shift is ``shift``."""

@@ -28,6 +28,7 @@ from amaranth.lib import io
 from amaranth.lib.cdc import ResetSynchronizer
 
 from boards.de1_soc import HPS_IO_PINS
+from sim.model.validation import check_number
 
 from .clocks import CONFIG_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
 from .platform_designer import H2F_RESET_PORT, HPS_IO_PORTS, SYSTEM_NAME, conduit_map, \
@@ -46,21 +47,14 @@ def _mhz(hz: float) -> str:
     return f"{hz / 1e6:.6f} MHz"
 
 
-def _check_hz(name, value, low, high):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not low <= value <= high:
-        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
-    return float(value)
-
-
 class BoardTop(Elaboratable):
     """Top level of the FPGA design for :class:`boards.de1_soc.StereogestDE1SoCPlatform`.
 
     Parameters
     ----------
     core_ports : list of (name, direction, width)
-        The core's Verilog ports (:func:`soc.platform_designer.verilog_ports`
-        of the emitted core): the board wires each conduit port by name.
+        The core's ports (:func:`soc.core.core_ports`): the board wires each
+        conduit port by name.
     sync_hz, vga_hz, xclk_hz : float
         PLL outputs: pipeline/bus clock (fed to ``soc_system``), VGA pixel
         clock and camera XCLK. Defaults from :mod:`soc.clocks` (100, 25 and
@@ -78,10 +72,10 @@ class BoardTop(Elaboratable):
                  xclk_hz: float = XCLK_HZ):
         self.core_ports = [(str(n), str(d), int(w)) for n, d, w in core_ports]
         core_interfaces(self.core_ports)        # validates the port list early
-        self.sync_hz = _check_hz("sync_hz", sync_hz, 10e6, 200e6)
-        self.vga_hz = _check_hz("vga_hz", vga_hz, 10e6, 100e6)
+        self.sync_hz = check_number("sync_hz", sync_hz, 10e6, 200e6, unit="Hz")
+        self.vga_hz = check_number("vga_hz", vga_hz, 10e6, 100e6, unit="Hz")
         # OV5642 XCLK range
-        self.xclk_hz = _check_hz("xclk_hz", xclk_hz, 6e6, 27e6)
+        self.xclk_hz = check_number("xclk_hz", xclk_hz, 6e6, 27e6, unit="Hz")
 
     def elaborate(self, platform):
         m = Module()

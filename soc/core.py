@@ -37,16 +37,19 @@ from amaranth.lib.wiring import In, Out
 from hdl._util import check_geometry
 from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
 from sim.model.pipeline import PipelineParams
+from sim.model.validation import check_number
 
 from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
 from .frame_buffer import NO_INIT_ATTR, FrameBuffer
+from .hps_interface import FIFO_BASE, UART_BASE
 from .ov5642_config import Ov5642Config
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
 
 __all__ = ["StereogestCore", "CameraPins", "I2cPins", "CORE_NAME", "CLOCK_DOMAINS",
-           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "emit_core_verilog", "strip_zero_init",
+           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "core_ports", "emit_core_verilog",
+           "strip_zero_init",
            "VIDEO_STAGES"]
 
 #: Verilog module name of the core (the ``_hw.tcl`` component wraps it).
@@ -55,22 +58,12 @@ CORE_NAME = "stereogest_core"
 CLOCK_DOMAINS = ("cam_left", "cam_right", "config", "vga")
 #: Bits per pixel of the VGA frame buffer (150 M10K blocks at 640 x 480).
 FRAME_BUFFER_BITS = 4
-#: Byte offsets of the two Avalon-MM slaves on the lightweight bridge.
-FIFO_BASE = 0x000
-UART_BASE = 0x100
 
 #: Camera pins as the camera drives them (the core takes ``In(CameraPins)``).
 CameraPins = wiring.Signature({"vsync": Out(1), "href": Out(1), "data": Out(8)})
 #: Open-drain I2C pins: ``*_oe`` pulls the line low, ``*_i`` is the line level.
 I2cPins = wiring.Signature({"scl_oe": Out(1), "sda_oe": Out(1),
                             "scl_i": In(1), "sda_i": In(1)})
-
-
-def _check_frequency(name, value, low, high):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not low <= value <= high:
-        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
-    return float(value)
 
 
 class StereogestCore(wiring.Component):
@@ -91,7 +84,7 @@ class StereogestCore(wiring.Component):
     vga_mode : soc.vga_timing.VgaMode
         Raster of the VGA output (640 x 480 at 60 Hz).
     fifo_depth : int
-        Entries of each centroid FIFO (``sw_hps.fifo.FIFO_DEPTH``).
+        Entries of each centroid FIFO (``soc.hps_interface.FIFO_DEPTH``).
     sync_fifo_depth : int
         Words of each camera FIFO of the stereo synchroniser.
     uart_baudrate : int
@@ -120,8 +113,8 @@ class StereogestCore(wiring.Component):
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
                  config_table=None):
         width, height = check_geometry(width, height)
-        self.sync_freq = _check_frequency("sync_freq", sync_freq, 1e6, 500e6)
-        self.config_freq = _check_frequency("config_freq", config_freq, 1e6, 500e6)
+        self.sync_freq = check_number("sync_freq", sync_freq, 1e6, 500e6, unit="Hz")
+        self.config_freq = check_number("config_freq", config_freq, 1e6, 500e6, unit="Hz")
         if not isinstance(vga_mode, VgaMode):
             raise ValueError(f"vga_mode must be a VgaMode, got {type(vga_mode).__name__}")
         self.width, self.height, self.params = width, height, params
@@ -210,6 +203,22 @@ class StereogestCore(wiring.Component):
                                      fifo.full, fifo.gesture, fifo.go, fault_seen,
                                      pipe.frames[3:6]))
         return m
+
+
+def core_ports(core: StereogestCore) -> list[tuple[str, str, int]]:
+    """The core's Verilog ports as ``(name, "input" | "output", width)``, derived
+    from its signature the way Amaranth names them: ``clk`` and ``rst`` of the
+    ``sync`` domain, then each member with its path joined by ``__``
+    (``fifo__address``, ``left_i2c__scl_oe``; the other domains' ``<domain>_clk``
+    and ``<domain>_rst`` are members). Platform Designer's component and the
+    simulation wrapper are built from this list; a test checks it against the
+    emitted Verilog."""
+    ports = [("clk", "input", 1), ("rst", "input", 1)]
+    for path, member, _ in core.signature.flatten(core):
+        ports.append(("__".join(str(part) for part in path),
+                      "input" if member.flow == wiring.In else "output",
+                      Shape.cast(member.shape).width))
+    return ports
 
 
 def emit_core_verilog(core: StereogestCore) -> str:

@@ -2,9 +2,10 @@
 """Centroid FIFO peripheral: an Avalon-MM slave on the lightweight HPS-to-FPGA
 bridge (thesis §7.4.1, Tables 12 and 13).
 
-The register map is the one of :mod:`sw_hps.fifo` (offsets and bits are taken
-from there); :class:`sw_hps.simulated.SimulatedFifoPeripheral` is its software
-model and the golden model of the tests.
+The register map is :data:`soc.hps_interface.FIFO_REGISTERS` (the driver,
+:mod:`sw_hps.fifo`, takes it from there too);
+:class:`sw_hps.simulated.SimulatedFifoPeripheral` is its software model and the
+golden model of the tests.
 """
 from __future__ import annotations
 
@@ -12,16 +13,16 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model._check import check_int
-from sw_hps.fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, DATA_BITS, DATO_X, DATO_Y,
-                         FIFO_DEPTH, LONGITUD_X, LONGITUD_Y)
+from sim.model.validation import check_int
+from .hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, DATA_BITS, DATO_X, DATO_Y,
+                            FIFO_DEPTH, FIFO_REGISTERS, LONGITUD_X, LONGITUD_Y)
 
 from .avalon import DATA_WIDTH, AvalonSlaveSignature
 
 __all__ = ["FifoSlave", "ADDRESS_WIDTH", "DATA_BITS_RANGE", "DEPTH_RANGE"]
 
 #: Word-address bits: six registers (0x00..0x14) -> word addresses 0..5.
-ADDRESS_WIDTH = 3
+ADDRESS_WIDTH = FIFO_REGISTERS.address_width
 DATA_BITS_RANGE = (1, DATA_WIDTH)
 #: Powers of two only (the pointers wrap by overflowing).
 DEPTH_RANGE = (2, 65536)
@@ -32,7 +33,7 @@ _CLR_BIT = CTRL_FIFO_CLR.bit_length() - 1
 
 class FifoSlave(wiring.Component):
     """Two FIFOs (smoothed centroid x and y) read by the HPS through the register
-    map of :mod:`sw_hps.fifo` (thesis §7.4.1, Table 12: registers; Table 13:
+    map :data:`soc.hps_interface.FIFO_REGISTERS` (thesis §7.4.1, Table 12: registers; Table 13:
     Control bits).
 
     Parameters
@@ -41,7 +42,7 @@ class FifoSlave(wiring.Component):
         Width of Dato_X / Dato_Y (thesis 10.8 fixed point: 18). Upper bits of
         the 32-bit word read 0.
     depth : int, power of two in [2, 65536]
-        Entries per FIFO (:data:`sw_hps.fifo.FIFO_DEPTH` = 512: one M10K block of
+        Entries per FIFO (:data:`soc.hps_interface.FIFO_DEPTH` = 512: one M10K block of
         512 x 18 bits per FIFO). Longitud_X / Longitud_Y count 0..depth.
 
     Ports

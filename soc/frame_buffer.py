@@ -12,7 +12,7 @@ from amaranth.hdl import Cat, DomainRenamer, Module, Mux, Signal, unsigned
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model._check import check_int
+from sim.model.validation import check_int
 
 from .vga_timing import VGA_640x480_60, VgaMode, VgaTiming
 

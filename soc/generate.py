@@ -32,8 +32,10 @@ import time
 from pathlib import Path
 
 from boards.de1_soc import CAMERA_HEADERS
+from sim.model.validation import check_number
 
 from .clocks import CONFIG_HZ, PCLK_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
+from .hps_interface import LIGHTWEIGHT_BRIDGE_BASE, SLAVE_BASES
 from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfaces, hw_tcl, \
     system_tcl, verilog_ports
 
@@ -49,8 +51,6 @@ SYSTEM_TCL = "soc_system.tcl"
 BUILD_SCRIPT = "quartus_build.sh"
 #: File that marks a directory as a stereogest bundle.
 MARKER = "stereogest-bundle.json"
-#: Physical base of the lightweight HPS-to-FPGA bridge on the Cyclone V HPS.
-LW_BRIDGE_BASE = 0xFF200000
 #: Amaranth's build scripts (they run only quartus_map..sta, not the whole flow) and its
 #: debug Verilog (empty: debug Verilog generation is off).
 _AMARANTH_SCRIPTS = ("build_stereogest.sh", "build_stereogest.bat", "build_stereogest.json",
@@ -104,13 +104,6 @@ def check_out_dir(out_dir) -> Path:
     return out
 
 
-def _frequency(name, value, low, high) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not low <= value <= high:
-        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}] Hz, got {value!r}")
-    return float(value)
-
-
 def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
              vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
@@ -141,14 +134,14 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     start = time.perf_counter()
     say = progress or (lambda message: None)
     out = check_out_dir(out_dir)
-    sync_hz = _frequency("sync_hz", sync_hz, 10e6, 200e6)
-    vga_hz = _frequency("vga_hz", vga_hz, 10e6, 100e6)
-    xclk_hz = _frequency("xclk_hz", xclk_hz, 6e6, 27e6)
+    sync_hz = check_number("sync_hz", sync_hz, 10e6, 200e6, unit="Hz")
+    vga_hz = check_number("vga_hz", vga_hz, 10e6, 100e6, unit="Hz")
+    xclk_hz = check_number("xclk_hz", xclk_hz, 6e6, 27e6, unit="Hz")
 
     from boards.de1_soc import StereogestDE1SoCPlatform
 
     from .board_top import BoardTop
-    from .core import CORE_NAME, FIFO_BASE, UART_BASE, StereogestCore, emit_core_verilog
+    from .core import CORE_NAME, StereogestCore, core_ports, emit_core_verilog
     from .vga_timing import VGA_640x480_60
 
     # the raster is the 640x480 one; the pixel clock is what the PLL makes
@@ -156,8 +149,8 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     core = StereogestCore(width, height, sync_freq=sync_hz, vga_mode=vga_mode)
     say(f"elaborating the core ({width}x{height}) ...")
     core_v = emit_core_verilog(core)
-    ports = verilog_ports(core_v, CORE_NAME)
-    bases = {"fifo": FIFO_BASE, "uart": UART_BASE}
+    ports = core_ports(core)
+    bases = dict(SLAVE_BASES)
     hw = hw_tcl(ports, module=CORE_NAME, verilog_file=CORE_FILE)
     system = system_tcl(ports, bases, clock_hz=sync_hz, core_module=CORE_NAME)
 
@@ -518,7 +511,7 @@ def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases) -> s
     conduits = [i for i in core_interfaces(ports) if i.kind == "conduit"]
     slaves = [i for i in core_interfaces(ports) if i.kind == "avalon"]
     slave_rows = "\n".join(
-        f"| `{s.name}` | {bases[s.name]:#06x} | {LW_BRIDGE_BASE + bases[s.name]:#010x} | "
+        f"| `{s.name}` | {bases[s.name]:#06x} | {LIGHTWEIGHT_BRIDGE_BASE + bases[s.name]:#010x} | "
         f"{4 << dict((r, w) for _, r, _, w in s.ports)['address']:#x} |" for s in slaves)
     conduit_list = ", ".join(f"`core_{c.name}`" for c in conduits)
     pins = f"{SYSTEM_NAME}/synthesis/submodules/hps_sdram_p0_pin_assignments.tcl"

@@ -19,6 +19,8 @@ from amaranth.lib import data, enum, memory, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from sim.model.validation import check_number
+
 __all__ = [
     "Ov5642Config", "RegisterWrite", "load_ov5642_table", "I2cTiming", "i2c_timing",
     "DEFAULT_TABLE", "OV5642_WRITE_ADDRESS", "ROW_BITS", "MAX_ROWS",
@@ -206,15 +208,6 @@ class _Ending(enum.Enum, shape=2):
     ERROR = 2
 
 
-def _check_freq(name: str, value, lo: float, hi: float, lo_open: bool) -> float:
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) \
-        and math.isfinite(value) and (lo < value if lo_open else lo <= value) and value <= hi
-    if not ok:
-        rng = f"({lo:g}, {hi:g}]" if lo_open else f"[{lo:g}, {hi:g}]"
-        raise ValueError(f"{name} must be a number in {rng} Hz, got {value!r}")
-    return float(value)
-
-
 class Ov5642Config(wiring.Component):
     """I2C master that writes the OV5642 register table to one camera (thesis §5.1).
 
@@ -314,8 +307,8 @@ class Ov5642Config(wiring.Component):
 
     def __init__(self, clk_freq=50e6, scl_freq=400e3, table=None,
                  device_address=OV5642_WRITE_ADDRESS, max_retries=3, auto_start=True):
-        clk_freq = _check_freq("clk_freq", clk_freq, *CLK_FREQ_RANGE, lo_open=False)
-        scl_freq = _check_freq("scl_freq", scl_freq, *SCL_FREQ_RANGE, lo_open=True)
+        clk_freq = check_number("clk_freq", clk_freq, *CLK_FREQ_RANGE, unit="Hz")
+        scl_freq = check_number("scl_freq", scl_freq, *SCL_FREQ_RANGE, unit="Hz", lo_open=True)
         if isinstance(device_address, bool) or not isinstance(device_address, numbers.Integral) \
                 or not 0x10 <= device_address <= 0xEE or device_address % 2:
             raise ValueError(f"device_address must be an even 8-bit write address in "

@@ -2,8 +2,10 @@
 ``_hw.tcl`` component of the core and the qsys-script that builds the HPS
 system ``soc_system``.
 
-Everything is derived from the core's emitted Verilog (:func:`verilog_ports`),
-so the component's ports are the core's ports by construction:
+Everything is derived from the core's ports (:func:`soc.core.core_ports`, taken
+from its signature; a test checks them against the emitted Verilog with
+:func:`verilog_ports`, which also reads the board top's ports), so the
+component's ports are the core's ports by construction:
 
 * ``clk`` is the component's clock sink, ``rst`` its reset sink (synchronous,
   active high);
@@ -31,6 +33,7 @@ from dataclasses import dataclass
 from boards.de1_soc import HPS_IO_PINS
 
 from .clocks import SYNC_HZ
+from .hps_interface import LIGHTWEIGHT_BRIDGE_BASE, SLAVE_WINDOW
 
 __all__ = ["verilog_ports", "CoreInterface", "core_interfaces", "exported_port_name",
            "soc_system_ports", "hw_tcl", "system_tcl", "HPS_MEMORY_PORTS", "SYSTEM_NAME",
@@ -51,8 +54,6 @@ EXPORT_PREFIX = "core_"
 BOARD_CONDUIT = "board"
 AVALON_ROLES = {"address": "input", "read": "input", "write": "input",
                 "writedata": "input", "readdata": "output"}
-#: Words addressed on the bridge by one slave, at most (its base is a multiple).
-_SLAVE_WINDOW = 0x100
 
 #: Ports of the HPS ``memory`` conduit as the system exports it (DE1-SoC: 32-bit
 #: DDR3, 15 row-address bits, 3 bank bits): (name, direction, width).
@@ -304,7 +305,7 @@ def core_interfaces(ports) -> list[CoreInterface]:
     Parameters
     ----------
     ports : list of (name, direction, width)
-        As :func:`verilog_ports` returns them.
+        As :func:`soc.core.core_ports` (or :func:`verilog_ports`) returns them.
 
     Returns
     -------
@@ -420,7 +421,7 @@ def hw_tcl(core_ports, *, module: str = "stereogest_core",
     Parameters
     ----------
     core_ports : list of (name, direction, width)
-        The core's Verilog ports (:func:`verilog_ports`).
+        The core's ports (:func:`soc.core.core_ports`).
     module, verilog_file : str
         Verilog module of the core and the file holding it (next to the
         ``_hw.tcl``).
@@ -521,14 +522,14 @@ def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = SYNC_HZ,
         if s.name not in slave_bases:
             raise ValueError(f"Avalon slave {s.name!r} has no base address")
         base = slave_bases[s.name]
-        if isinstance(base, bool) or not isinstance(base, int) or base % _SLAVE_WINDOW \
+        if isinstance(base, bool) or not isinstance(base, int) or base % SLAVE_WINDOW \
                 or not 0 <= base < 0x200000:
             raise ValueError(f"base of {s.name!r} must be a multiple of 0x100 in "
                              f"[0, 0x200000), got {base!r}")
         address_bits = dict((r, w) for _, r, _, w in s.ports)["address"]
-        if 4 << address_bits > _SLAVE_WINDOW:
+        if 4 << address_bits > SLAVE_WINDOW:
             raise ValueError(f"slave {s.name!r} spans {4 << address_bits:#x} bytes, more than "
-                             f"{_SLAVE_WINDOW:#x}")
+                             f"{SLAVE_WINDOW:#x}")
         if base in bases.values():
             raise ValueError(f"slaves share base {base:#x}")
         bases[s.name] = base
@@ -571,7 +572,8 @@ def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = SYNC_HZ,
         f"add_connection clk_0.clk {core}.clock",
         f"add_connection clk_0.clk_reset {core}.reset",
         "",
-        "# the core's slaves on the lightweight bridge (HPS address 0xFF200000 + base)",
+        f"# the core's slaves on the lightweight bridge (HPS address "
+        f"0x{LIGHTWEIGHT_BRIDGE_BASE:08X} + base)",
     ]
     for name, base in bases.items():
         lines += [f"add_connection hps_0.h2f_lw_axi_master {core}.{name}",

@@ -3,7 +3,7 @@
 RN-42 Bluetooth module that links the board to the LEGO NXT robot at 115200
 baud (thesis §8.5.1).
 
-The register map is the one of :mod:`sw_hps.robot` (driver:
+The register map is :data:`soc.hps_interface.UART_REGISTERS` (driver:
 :class:`sw_hps.robot.UartLink`; software model:
 :class:`sw_hps.simulated.SimulatedUart`).
 """
@@ -18,9 +18,9 @@ from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
-from sim.model._check import check_int
-from sw_hps.robot import (UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID,
-                          UART_STATUS_TX_READY, UART_TXDATA)
+from sim.model.validation import check_int
+from .hps_interface import (UART_REGISTERS, UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID,
+                            UART_STATUS_TX_READY, UART_TXDATA)
 
 from .avalon import DATA_WIDTH, AvalonSlaveSignature
 
@@ -28,7 +28,7 @@ __all__ = ["UartSlave", "ADDRESS_WIDTH", "MIN_DIVISOR", "MAX_DIVISOR", "MAX_BAUD
            "RX_DEPTH_RANGE", "COUNTER_BITS"]
 
 #: Word-address bits: TXDATA, STATUS, RXDATA (word 3 reads 0).
-ADDRESS_WIDTH = 2
+ADDRESS_WIDTH = UART_REGISTERS.address_width
 #: Clock cycles per bit at least: the receiver's start-bit check and mid-bit
 #: sampling are off by up to 3 cycles (synchroniser, edge detection), which
 #: must stay well inside half a bit.
@@ -45,7 +45,7 @@ _FRAME_BITS = 10  # start, 8 data, stop
 
 
 class UartSlave(wiring.Component):
-    """8N1 UART with the register map of :mod:`sw_hps.robot` (thesis §8.5.1:
+    """8N1 UART with the register map :data:`soc.hps_interface.UART_REGISTERS` (thesis §8.5.1:
     RN-42 Bluetooth module to the LEGO NXT, 115200 baud).
 
     Parameters

@@ -21,7 +21,7 @@ from amaranth.hdl import Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import Out
 
-from sim.model._check import check_int
+from sim.model.validation import check_int
 
 __all__ = ["VgaMode", "VGA_640x480_60", "VgaTiming"]
 

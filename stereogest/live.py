@@ -6,7 +6,7 @@ runs each through every pixel stage (:func:`sim.model.pipeline.process_frame`),
 tracks the centroid (moving average, spotting, orientation symbols: the
 pipeline's :func:`~sim.model.pipeline.track` over the frames so far, which is
 causal) and, when a gesture ends, runs the board application's HMMs on it
-(:func:`sw_hps.app.run_on_trajectory`) for the gesture's name and its NXT
+(:func:`sw_hps.simulated.run_on_trajectory`) for the gesture's name and its NXT
 telegram. :class:`LiveServer` serves the page on 127.0.0.1 only: the two
 cameras, the six stages of thesis Table 22, the trajectory and the last
 recognised gesture, refreshed as frames arrive (the page polls
@@ -113,7 +113,7 @@ class LiveSession:
     def _recognise(self, traj, n: int) -> None:
         """The board application on the frames so far (a simulated FIFO): the
         gesture that just ended."""
-        from sw_hps.app import run_on_trajectory
+        from sw_hps.simulated import run_on_trajectory
         board = run_on_trajectory(self.models, traj.smoothed[:, 0], traj.smoothed[:, 1],
                                   traj.flag, pixels=False)
         name = board.recognised[-1] if board.recognised else None
@@ -217,8 +217,8 @@ class LiveServer:
     port; :attr:`port` says which), served from a background thread."""
 
     def __init__(self, session: LiveSession, width: int, height: int, port: int = 8642):
-        from sim.footage import check_option
-        check_option("--port", port, 0, 65535)
+        from sim.model.validation import check_int
+        check_int("--port", port, 0, 65535)
         page = _PAGE.format(w=width, h=height, figures="\n".join(
             f'<figure><figcaption>{name}</figcaption><img id="panel-{_slug(name)}" '
             f'data-panel="{_slug(name)}" alt="{name}"></figure>' for name in PANELS)).encode()

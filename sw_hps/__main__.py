@@ -38,13 +38,15 @@ import termios
 import time
 
 from .app import (DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, DEFAULT_MAX_POINTS,
-                  DEFAULT_MIN_SYMBOLS, GestureApp, check_models, simulate_trajectory)
+                  DEFAULT_MIN_SYMBOLS, GestureApp, check_models)
 from .bus import BusError, DevMemBus, SimBus, UioBus
+from soc.hps_interface import FIFO_BASE, UART_BASE, UART_SPAN
+
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
-from .robot import UART_SPAN, NullLink, SerialLink, UartLink, configure_rn42, \
-    normalise_bt_address
-from .simulated import SimulatedFifoPeripheral, SimulatedUart, read_trajectory_csv
+from .robot import NullLink, SerialLink, UartLink, configure_rn42, normalise_bt_address
+from .simulated import (SimulatedFifoPeripheral, SimulatedUart, read_trajectory_csv,
+                        simulate_trajectory)
 
 PROG = "python -m sw_hps"
 #: Bytes mapped from the FIFO's base (FIFO and UART must fit).
@@ -86,11 +88,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--robot", required=True,
                         help="serial:DEVICE (Bluetooth serial adapter), uart (FPGA UART) "
                         "or none")
-    parser.add_argument("--bridge-offset", type=_int, default=0,
-                        help="FIFO slave offset in the lightweight bridge (devmem; default 0x0)")
+    parser.add_argument("--bridge-offset", type=_int, default=FIFO_BASE,
+                        help=f"FIFO slave offset in the lightweight bridge (devmem; default "
+                             f"{FIFO_BASE:#x})")
     parser.add_argument("--uio", default="/dev/uio0", help="UIO device (default /dev/uio0)")
-    parser.add_argument("--uart-offset", type=_int, default=0x100,
-                        help="UART slave offset from the FIFO's base (default 0x100)")
+    parser.add_argument("--uart-offset", type=_int, default=UART_BASE - FIFO_BASE,
+                        help=f"UART slave offset from the FIFO's base (default "
+                             f"{UART_BASE - FIFO_BASE:#x})")
     parser.add_argument("--baudrate", type=int, default=115200,
                         help="serial rate (default 115200)")
     parser.add_argument("--rn42-address",

@@ -34,7 +34,7 @@ S3 ``CLASSIFY``
     or the model file's rejection rule refuses it: its log-likelihood per step is
     below the best class' threshold (not a gesture).
 S4 ``SEND``
-    Send the class' telegram (:func:`sw_hps.robot.telegram`, chosen by class *name*;
+    Send the class' telegram (:func:`sw_hps.telegram.telegram`, chosen by class *name*;
     a class whose name is not one of the seven gestures sends nothing).
 S5 ``CLEAR``
     Clear the FIFOs (GO stays set) and return to S1.
@@ -61,13 +61,13 @@ FIFOs receive until the gesture bit reads 1 ("no gesture").
   per ``heartbeat`` (never once per poll; none if the heartbeat is off); one INFO
   line when the bit reads 1 again.
 * Point outside the frame: a popped pair with x >= ``frame_width`` or y >=
-  ``frame_height`` (pixels, 10.8 decoded; default :data:`~sw_hps.fifo.FRAME_WIDTH` x
-  :data:`~sw_hps.fifo.FRAME_HEIGHT`), or with bits above the 18 data bits set in
+  ``frame_height`` (pixels, 10.8 decoded; default :data:`~soc.hps_interface.FRAME_WIDTH` x
+  :data:`~soc.hps_interface.FRAME_HEIGHT`), or with bits above the 18 data bits set in
   Dato_X / Dato_Y, is dropped with a warning giving the values and the allowed range
   (counted in ``bad_points``). The gesture goes on with its valid points (the step
   across the gap gives one symbol). More than ``max_bad_points`` such points in one
   gesture drop the gesture (garbage, not a hand).
-* Longitud_X != Longitud_Y, or either above :data:`~sw_hps.fifo.FIFO_DEPTH`: the FIFOs
+* Longitud_X != Longitud_Y, or either above :data:`~soc.hps_interface.FIFO_DEPTH`: the FIFOs
   are pushed and popped together, so this is misalignment or a bus fault. A push
   between the two length reads makes them differ by one legitimately, so they are
   read once more first; if they still disagree, S2 drops the gesture and clears the
@@ -85,13 +85,13 @@ So the application is never silent for longer than about ``heartbeat`` seconds
 gesture, its reminders; a lasting idle fault, its warnings; and a stuck gesture bit
 ends a gesture ``gesture_timeout`` after the last pair. Timeouts and the heartbeat read
 ``clock`` (``time.monotonic``; injectable like ``sleep``, e.g. a
-:class:`SimulatedClock`). :meth:`GestureApp.request_stop` (the CLI's SIGINT/SIGTERM
+:class:`sw_hps.simulated.SimulatedClock`). :meth:`GestureApp.request_stop` (the CLI's SIGINT/SIGTERM
 handlers) ends :meth:`GestureApp.run` cleanly.
 
 Every finished gesture gives one :class:`GestureResult` (recognised, rejected or
 dropped), passed to the ``on_result`` hook and returned by :meth:`GestureApp.run`.
-:func:`run_on_trajectory` runs the unmodified application against a simulated FIFO
-fed with a whole trajectory (the end-to-end demo and ``--bus sim``).
+:func:`sw_hps.simulated.run_on_trajectory` runs the unmodified application against a
+simulated FIFO fed with a whole trajectory (the end-to-end demo and ``--bus sim``).
 """
 from __future__ import annotations
 
@@ -106,16 +106,14 @@ from typing import Callable
 
 import numpy as np
 
-from .bus import SimBus
 from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FRAME_WIDTH,
                    FifoPeripheral, FifoStatus, from_fixed)
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
-from .robot import GESTURE_NAMES, NullLink, telegram
-from .simulated import SimulatedFifoPeripheral
+from .robot import NullLink
+from .telegram import GESTURE_NAMES, telegram
 
-__all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "SimulatedClock",
-           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "DEFAULT_MIN_SYMBOLS",
+__all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "DEFAULT_MIN_SYMBOLS",
            "DEFAULT_MAX_POINTS", "DEFAULT_GESTURE_TIMEOUT", "DEFAULT_HEARTBEAT",
            "DEFAULT_MAX_BAD_POINTS", "check_models"]
 
@@ -792,136 +790,3 @@ class GestureApp:
                 self.on_result(result)
             except Exception as exc:
                 log.error("on_result hook raised %s: %s", type(exc).__name__, exc)
-
-
-class SimulatedClock:
-    """Simulated time for the application: ``sleep(seconds)`` advances it, calling
-    it reads it (give ``sleep=clock.sleep, clock=clock`` to :class:`GestureApp`).
-
-    Parameters
-    ----------
-    start : float
-        Initial time in seconds.
-    """
-
-    def __init__(self, start: float = 0.0):
-        self.now = float(start)
-
-    def __call__(self) -> float:
-        return self.now
-
-    def sleep(self, seconds: float) -> None:
-        self.now += max(0.0, float(seconds))
-
-    def advance(self, seconds: float) -> None:
-        """Let ``seconds`` pass without a sleep (e.g. time spent on the bus)."""
-        self.sleep(seconds)
-
-
-class SimulationRun:
-    """The unmodified application wired to a simulated FIFO that plays a trajectory
-    (built by :func:`simulate_trajectory`; :func:`run_on_trajectory` also runs it).
-
-    Attributes
-    ----------
-    app : GestureApp
-        The application (its ``request_stop`` ends :meth:`run` early).
-    peripheral : SimulatedFifoPeripheral
-        The FIFO model, one video frame per Control read (``reads_per_frame``).
-    link : object
-        The robot link (a recording :class:`~sw_hps.robot.NullLink` by default).
-    results : list of GestureResult
-        Every finished gesture (filled by :meth:`run`).
-    """
-
-    def __init__(self, app: GestureApp, peripheral: SimulatedFifoPeripheral, link,
-                 max_iterations: int):
-        self.app = app
-        self.peripheral = peripheral
-        self.link = link
-        self.max_iterations = max_iterations
-        self.results: list[GestureResult] = []
-
-    def finished(self) -> bool:
-        """Every frame played, FIFOs empty, no gesture flagged, application in S1."""
-        peripheral = self.peripheral
-        return (peripheral.frames_pending == 0 and not peripheral.flag
-                and not peripheral.fifo_x and self.app.state is State.WAIT)
-
-    def run(self) -> "SimulationRun":
-        """Run the application until :meth:`finished` (or the iteration bound)."""
-        self.results.extend(self.app.run(max_iterations=self.max_iterations,
-                                         until=self.finished))
-        return self
-
-    @property
-    def recognised(self) -> list[str]:
-        """Names of the recognised gestures, in order."""
-        return [r.class_name for r in self.results if r.recognised]
-
-    @property
-    def telegrams(self) -> list[bytes]:
-        """Telegrams the link accepted, in order."""
-        return [r.telegram for r in self.results if r.sent and r.telegram is not None]
-
-
-def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = True,
-                        link=None, bus: SimBus | None = None, reads_per_frame: int = 1,
-                        depth: int = FIFO_DEPTH,
-                        sleep: Callable[[float], None] | None = None,
-                        max_iterations: int | None = None, **app_options) -> SimulationRun:
-    """Wire the unmodified application to a simulated FIFO playing a trajectory.
-
-    Parameters
-    ----------
-    models : GestureModels
-        Class models.
-    x, y : (T,) arrays
-        Smoothed centroid per video frame, in pixels (``pixels=True``, as in
-        ``trajectory.csv``) or raw 10.8 fixed point.
-    flag : (T,) array
-        Spotting flag per frame.
-    link : optional
-        Robot link; a recording :class:`~sw_hps.robot.NullLink` by default.
-    bus : SimBus, optional
-        Bus to attach the simulated FIFO to at offset 0 (e.g. one that already
-        holds a simulated UART); a new one by default.
-    reads_per_frame : int
-        Control reads (= application polls) per video frame.
-    depth : int
-        Simulated FIFO depth.
-    sleep : callable, optional
-        The application's sleep. By default a :class:`SimulatedClock` (no real
-        waiting) that is also the application's ``clock``, unless ``clock`` is given.
-    max_iterations : int, optional
-        Safety bound on steps (default: generous, from the trajectory length).
-    **app_options
-        Passed to :class:`GestureApp` (``min_symbols``, ``max_points``,
-        ``on_result``, ...).
-
-    Returns
-    -------
-    SimulationRun
-        Not yet run: call its ``run()``.
-    """
-    peripheral = SimulatedFifoPeripheral(depth=depth, reads_per_frame=reads_per_frame)
-    peripheral.queue_trajectory(x, y, flag, pixels=pixels)
-    if bus is None:
-        bus = SimBus(peripheral)
-    else:
-        bus.attach(0, peripheral)
-    link = link if link is not None else NullLink()
-    if sleep is None:
-        simulated = SimulatedClock()
-        sleep = simulated.sleep
-        app_options.setdefault("clock", simulated)
-    app = GestureApp(models, FifoPeripheral(bus), link, sleep=sleep, **app_options)
-    if max_iterations is None:
-        max_iterations = 20 * (peripheral.frames_pending + 10) * reads_per_frame + 1000
-    return SimulationRun(app, peripheral, link, max_iterations)
-
-
-def run_on_trajectory(models: GestureModels, x, y, flag, **options) -> SimulationRun:
-    """:func:`simulate_trajectory` and run it; the returned object holds
-    ``results``, ``recognised`` (names) and ``telegrams`` (bytes sent)."""
-    return simulate_trajectory(models, x, y, flag, **options).run()

@@ -4,6 +4,8 @@ tarball (``make hps-bundle``; ``make deploy HPS=user@host`` copies it over).
 The tarball unpacks to::
 
     sw_hps/...      the application (Python 3 + numpy only)
+    soc/hps_interface.py   what the FPGA and the application agree on (registers,
+                    bases, gesture classes; standard library only)
     model.json      the HMM model file
     README.txt      how to start it
 
@@ -21,6 +23,8 @@ from sw_hps.app import check_models
 from sw_hps.hmm import load_models
 
 PACKAGE = Path(__file__).resolve().parent
+#: Files of the repository the application imports besides its own package.
+SHARED = ("soc/__init__.py", "soc/hps_interface.py")
 
 START = """stereogest HPS application
 ==========================
@@ -57,6 +61,9 @@ def build_bundle(model_path, output) -> list[str]:
             for path in members:
                 name = "sw_hps/" + path.relative_to(PACKAGE).as_posix()
                 _add_bytes(tar, name, path.read_bytes())
+                names.append(name)
+            for name in SHARED:
+                _add_bytes(tar, name, (PACKAGE.parent / name).read_bytes())
                 names.append(name)
             _add_bytes(tar, "model.json", model_path.read_bytes())
             _add_bytes(tar, "README.txt", START.encode())

@@ -19,6 +19,8 @@ import mmap
 import os
 from typing import Protocol, runtime_checkable
 
+from soc.hps_interface import LIGHTWEIGHT_BRIDGE_BASE
+
 __all__ = ["Bus", "BusError", "DevMemBus", "UioBus", "SimBus", "check_offset"]
 
 log = logging.getLogger(__name__)
@@ -152,7 +154,7 @@ class DevMemBus(_MmapBus):
         Bad ``base``, ``offset`` or ``span``.
     """
 
-    def __init__(self, base: int = 0xFF200000, offset: int = 0, span: int = 0x1000,
+    def __init__(self, base: int = LIGHTWEIGHT_BRIDGE_BASE, offset: int = 0, span: int = 0x1000,
                  path: str = "/dev/mem"):
         for name, value in (("base", base), ("offset", offset)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 0 or value % 4:

@@ -1,35 +1,15 @@
-"""Register map and driver of the FPGA's centroid FIFO peripheral (thesis §7.4.1,
+"""Driver of the FPGA's centroid FIFO peripheral (thesis §7.4.1,
 Tables 12 and 13).
 
-Runs on the board's ARM: Python 3 and numpy only, nothing else from this project.
-This module is the one definition of the register interface; the hardware slave
-(an Avalon-MM slave on the lightweight HPS-to-FPGA bridge) implements exactly it,
-and :class:`sw_hps.simulated.SimulatedFifoPeripheral` models it in software.
+Runs on the board's ARM: Python 3 and numpy only, and :mod:`soc.hps_interface`
+(shipped with it). The hardware slave (an Avalon-MM slave on the lightweight
+HPS-to-FPGA bridge) and this driver take the register map from there, and
+:class:`sw_hps.simulated.SimulatedFifoPeripheral` models it in software.
 
-Register map (byte offsets from the slave's base, 32-bit words)
----------------------------------------------------------------
-
-======  ==========  ====  ==========================================================
-offset  name        kind  meaning
-======  ==========  ====  ==========================================================
-0x00    Dato_X      R     pops the X FIFO: smoothed centroid x, unsigned 10.8 fixed
-                          point in bits [17:0] (bits [31:18] read 0); an empty FIFO
-                          reads 0 and pops nothing
-0x04    Dato_Y      R     pops the Y FIFO (same format)
-0x08    reserved    R     reads 0, writes ignored
-0x0C    Control     R/W   bit 0 GO (R/W): 1 = capture runs (pairs are pushed and the
-                          gesture bit follows the spotting flag);
-                          bit 1 FIFO data (RO): 1 = both FIFOs hold >= 1 entry;
-                          bit 2 gesture (RO): 1 = NO valid gesture in progress (the
-                          thesis polarity: 0 while the spotting flag is set);
-                          bit 3 FIFO-CLR (W1): writing 1 empties both FIFOs and
-                          clears FIFO-FULL; self-clearing, reads 0;
-                          bit 4 FIFO-FULL (RO, sticky): a push found a FIFO full
-                          since the last FIFO-CLR (that pair was dropped);
-                          bits [31:5] read 0, writes to RO bits are ignored
-0x10    Longitud_X  R     number of entries in the X FIFO (0..FIFO_DEPTH)
-0x14    Longitud_Y  R     number of entries in the Y FIFO (0..FIFO_DEPTH)
-======  ==========  ====  ==========================================================
+The register map is declared in :data:`soc.hps_interface.FIFO_REGISTERS` (its
+``table()`` prints it): Dato_X and Dato_Y pop the two FIFOs (10.8 fixed point),
+Control holds GO, FIFO data, gesture, FIFO-CLR and FIFO-FULL, Longitud_X and
+Longitud_Y count the entries.
 
 The gesture spotting runs whatever GO is; GO gates its effects. While GO is 1 the
 hardware pushes one (x, y) pair per video frame whose spotting flag is set, and the
@@ -49,6 +29,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from soc.hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL,
+                               CTRL_GO, CTRL_NO_GESTURE, CTRL_READABLE_MASK, DATA_BITS,
+                               DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT,
+                               FRAME_WIDTH, LIGHTWEIGHT_BRIDGE_BASE, LONGITUD_X, LONGITUD_Y,
+                               REGISTER_SPAN, RESERVED)
+
 __all__ = [
     "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
@@ -56,43 +42,6 @@ __all__ = [
     "FRAME_WIDTH", "FRAME_HEIGHT", "LIGHTWEIGHT_BRIDGE_BASE", "FifoStatus", "FifoPeripheral",
     "to_fixed", "from_fixed",
 ]
-
-# ---- register offsets (bytes) -------------------------------------------------------
-DATO_X = 0x00
-DATO_Y = 0x04
-RESERVED = 0x08
-CONTROL = 0x0C
-LONGITUD_X = 0x10
-LONGITUD_Y = 0x14
-#: Bytes the slave decodes (six 32-bit words).
-REGISTER_SPAN = 0x18
-
-# ---- Control bits ---------------------------------------------------------------
-CTRL_GO = 1 << 0
-CTRL_FIFO_DATA = 1 << 1
-CTRL_NO_GESTURE = 1 << 2
-CTRL_FIFO_CLR = 1 << 3
-CTRL_FIFO_FULL = 1 << 4
-#: Bits of Control that can read 1 (FIFO-CLR always reads 0).
-CTRL_READABLE_MASK = CTRL_GO | CTRL_FIFO_DATA | CTRL_NO_GESTURE | CTRL_FIFO_FULL
-
-# ---- data format ----------------------------------------------------------------
-#: Fractional bits of Dato_X / Dato_Y (10.8 fixed point, thesis eq. 27).
-FRAC_BITS = 8
-#: Bits used in Dato_X / Dato_Y.
-DATA_BITS = 18
-DATA_MASK = (1 << DATA_BITS) - 1
-#: Entries per FIFO in the hardware.
-FIFO_DEPTH = 512
-#: Frame size of the board in pixels (the OV5642 register table sets 640 x 480; the
-#: SoC is built at this size, ``soc.core.StereogestCore``'s default, checked by the
-#: tests). Dato_X / Dato_Y lie in [0, FRAME_WIDTH) / [0, FRAME_HEIGHT).
-FRAME_WIDTH = 640
-FRAME_HEIGHT = 480
-
-#: Physical base address of the lightweight HPS-to-FPGA bridge (Cyclone V HPS).
-LIGHTWEIGHT_BRIDGE_BASE = 0xFF200000
-
 
 def to_fixed(pixels: float) -> int:
     """Pixels to the 10.8 fixed-point register value (rounded, clipped to 18 bits)."""

@@ -1,11 +1,13 @@
-"""In-process models of the FPGA slaves, for tests and for running the board
-application without a board (thesis §7.4.1, Tables 12-13).
+"""In-process models of the FPGA slaves, and the unmodified board application
+run against them, for tests and for running without a board (thesis §7.4.1,
+Tables 12-13; ``python -m sw_hps --bus sim``).
 
-Runs on the board's ARM too: Python 3 and numpy only, nothing else from this project.
+Runs on the board's ARM too: Python 3 and numpy only (and the shared
+:mod:`soc.hps_interface`).
 
-:class:`SimulatedFifoPeripheral` has exactly the register semantics documented in
-:mod:`sw_hps.fifo`; :class:`SimulatedUart` those of the UART map in
-:mod:`sw_hps.robot`. Both implement ``read32`` / ``write32`` (offsets relative to
+:class:`SimulatedFifoPeripheral` has exactly the register semantics of
+:data:`soc.hps_interface.FIFO_REGISTERS` described in :mod:`sw_hps.fifo`;
+:class:`SimulatedUart` those of :data:`soc.hps_interface.UART_REGISTERS`. Both implement ``read32`` / ``write32`` (offsets relative to
 their own base), so :class:`sw_hps.bus.SimBus` can wrap them.
 
 Time (video frames) in the FIFO model
@@ -28,16 +30,23 @@ import csv
 import logging
 from collections import deque
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
+from .app import GestureApp, GestureResult, State
+from .bus import SimBus
 from .fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
                    CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
-                   LONGITUD_Y, REGISTER_SPAN, to_fixed)
-from .robot import UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID, \
-    UART_STATUS_TX_READY, UART_TXDATA
+                   LONGITUD_Y, REGISTER_SPAN, FifoPeripheral, to_fixed)
+from .hmm import GestureModels
+from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID,
+                               UART_STATUS_TX_READY, UART_TXDATA)
 
-__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv"]
+from .robot import NullLink
+
+__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv", "SimulatedClock",
+           "SimulationRun", "simulate_trajectory", "run_on_trajectory"]
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +65,7 @@ class SimulatedFifoPeripheral:
     Parameters
     ----------
     depth : int >= 1
-        Entries per FIFO (the hardware has :data:`sw_hps.fifo.FIFO_DEPTH`).
+        Entries per FIFO (the hardware has :data:`soc.hps_interface.FIFO_DEPTH`).
     reads_per_frame : int >= 1 or None
         If set, every ``reads_per_frame``-th read of Control steps one frame first
         (see the module docstring). ``None``: frames advance only when the test
@@ -307,3 +316,136 @@ def read_trajectory_csv(path):
         flags.append(bool(flag))
     return np.array(xs, dtype=np.float64), np.array(ys, dtype=np.float64), \
         np.array(flags, dtype=bool)
+
+
+class SimulatedClock:
+    """Simulated time for the application: ``sleep(seconds)`` advances it, calling
+    it reads it (give ``sleep=clock.sleep, clock=clock`` to :class:`GestureApp`).
+
+    Parameters
+    ----------
+    start : float
+        Initial time in seconds.
+    """
+
+    def __init__(self, start: float = 0.0):
+        self.now = float(start)
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += max(0.0, float(seconds))
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` pass without a sleep (e.g. time spent on the bus)."""
+        self.sleep(seconds)
+
+
+class SimulationRun:
+    """The unmodified application wired to a simulated FIFO that plays a trajectory
+    (built by :func:`simulate_trajectory`; :func:`run_on_trajectory` also runs it).
+
+    Attributes
+    ----------
+    app : GestureApp
+        The application (its ``request_stop`` ends :meth:`run` early).
+    peripheral : SimulatedFifoPeripheral
+        The FIFO model, one video frame per Control read (``reads_per_frame``).
+    link : object
+        The robot link (a recording :class:`~sw_hps.robot.NullLink` by default).
+    results : list of GestureResult
+        Every finished gesture (filled by :meth:`run`).
+    """
+
+    def __init__(self, app: GestureApp, peripheral: SimulatedFifoPeripheral, link,
+                 max_iterations: int):
+        self.app = app
+        self.peripheral = peripheral
+        self.link = link
+        self.max_iterations = max_iterations
+        self.results: list[GestureResult] = []
+
+    def finished(self) -> bool:
+        """Every frame played, FIFOs empty, no gesture flagged, application in S1."""
+        peripheral = self.peripheral
+        return (peripheral.frames_pending == 0 and not peripheral.flag
+                and not peripheral.fifo_x and self.app.state is State.WAIT)
+
+    def run(self) -> "SimulationRun":
+        """Run the application until :meth:`finished` (or the iteration bound)."""
+        self.results.extend(self.app.run(max_iterations=self.max_iterations,
+                                         until=self.finished))
+        return self
+
+    @property
+    def recognised(self) -> list[str]:
+        """Names of the recognised gestures, in order."""
+        return [r.class_name for r in self.results if r.recognised]
+
+    @property
+    def telegrams(self) -> list[bytes]:
+        """Telegrams the link accepted, in order."""
+        return [r.telegram for r in self.results if r.sent and r.telegram is not None]
+
+
+def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = True,
+                        link=None, bus: SimBus | None = None, reads_per_frame: int = 1,
+                        depth: int = FIFO_DEPTH,
+                        sleep: Callable[[float], None] | None = None,
+                        max_iterations: int | None = None, **app_options) -> SimulationRun:
+    """Wire the unmodified application to a simulated FIFO playing a trajectory.
+
+    Parameters
+    ----------
+    models : GestureModels
+        Class models.
+    x, y : (T,) arrays
+        Smoothed centroid per video frame, in pixels (``pixels=True``, as in
+        ``trajectory.csv``) or raw 10.8 fixed point.
+    flag : (T,) array
+        Spotting flag per frame.
+    link : optional
+        Robot link; a recording :class:`~sw_hps.robot.NullLink` by default.
+    bus : SimBus, optional
+        Bus to attach the simulated FIFO to at offset 0 (e.g. one that already
+        holds a simulated UART); a new one by default.
+    reads_per_frame : int
+        Control reads (= application polls) per video frame.
+    depth : int
+        Simulated FIFO depth.
+    sleep : callable, optional
+        The application's sleep. By default a :class:`SimulatedClock` (no real
+        waiting) that is also the application's ``clock``, unless ``clock`` is given.
+    max_iterations : int, optional
+        Safety bound on steps (default: generous, from the trajectory length).
+    **app_options
+        Passed to :class:`GestureApp` (``min_symbols``, ``max_points``,
+        ``on_result``, ...).
+
+    Returns
+    -------
+    SimulationRun
+        Not yet run: call its ``run()``.
+    """
+    peripheral = SimulatedFifoPeripheral(depth=depth, reads_per_frame=reads_per_frame)
+    peripheral.queue_trajectory(x, y, flag, pixels=pixels)
+    if bus is None:
+        bus = SimBus(peripheral)
+    else:
+        bus.attach(0, peripheral)
+    link = link if link is not None else NullLink()
+    if sleep is None:
+        simulated = SimulatedClock()
+        sleep = simulated.sleep
+        app_options.setdefault("clock", simulated)
+    app = GestureApp(models, FifoPeripheral(bus), link, sleep=sleep, **app_options)
+    if max_iterations is None:
+        max_iterations = 20 * (peripheral.frames_pending + 10) * reads_per_frame + 1000
+    return SimulationRun(app, peripheral, link, max_iterations)
+
+
+def run_on_trajectory(models: GestureModels, x, y, flag, **options) -> SimulationRun:
+    """:func:`simulate_trajectory` and run it; the returned object holds
+    ``results``, ``recognised`` (names) and ``telegrams`` (bytes sent)."""
+    return simulate_trajectory(models, x, y, flag, **options).run()

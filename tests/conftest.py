@@ -17,7 +17,8 @@ SLOW_FILES = (
     "test_hdl_verilator.py",            # matcher builds, the full cones frame
     "test_soc_system.py",               # the Verilated system end to end
     "test_soc_generate.py",             # the Quartus bundle, core Verilog lint
-    "test_hdl_stages.py",
+    "test_hdl_shd.py",
+    "test_hdl_morphology.py",
     "test_soc_ov5642_config.py",
     "test_hdl_gesture_pipeline.py",
 )

@@ -5,14 +5,19 @@ to back with idle cycles inside and between rows, over a covering sweep of
 census window {3, 5, 7} x Hamming window {3, 5, 13} x disparities {4, 16, 32}
 (every value of each parameter and every pair of census/Hamming windows' sizes
 appears; the SHD stage alone runs the full Hamming x disparity product in
-test_hdl_stages.py and the Verilator test the full Middlebury frame)."""
+test_hdl_shd.py and the Verilator test the full Middlebury frame)."""
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from verif.streams import field, pack, run_stream
+from hdl.lrcc import LeftRightCheck
+from hdl.median3x3 import Median3x3
+from hdl.selectors import DisparitySelectors
+from hdl.shd import SumOfHammingDistances
 from hdl.stereo_matcher import StereoMatcher
+from hdl.window import WindowGenerator
 from sim.images import read_grey
 from sim.model.stereo import stereo_match
 
@@ -158,3 +163,18 @@ def test_external_flush_mode_is_a_plain_pipeline_stage():
         ref = stereo_match(left, right, census_window=5, hamming_window=5, max_disparity=8,
                            lrcc_threshold=2).disparity
         assert (disp[sel].reshape(h, w) == ref).all()
+
+
+# The matcher's stages (hdl/shd.py, selectors.py, lrcc.py, median3x3.py, window.py):
+# one test for the parameter checks of the five.
+def test_stage_validation_names_the_parameter():
+    with pytest.raises(ValueError, match="hamming_window"):
+        SumOfHammingDistances(32, 8, 24, 4, 8)
+    with pytest.raises(ValueError, match="max_disparity"):
+        DisparitySelectors(32, 8, 0, 10)
+    with pytest.raises(ValueError, match=r"width must be in \[16, 4096\]"):
+        LeftRightCheck(10, 8, 16)
+    with pytest.raises(ValueError, match="pixel_bits"):
+        Median3x3(16, 8, 0)
+    with pytest.raises(ValueError, match="height"):
+        WindowGenerator(16, 1, 8, 3)

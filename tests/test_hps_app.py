@@ -14,14 +14,14 @@ from hypothesis import strategies as st
 
 from sim.gesture_shapes import GESTURE_NAMES, gesture_path
 from sw_hps.__main__ import main
-from sw_hps.app import (HEALTHY_STEPS, GestureApp, GestureClassifier, GestureResult, State,
-                        run_on_trajectory, simulate_trajectory)
+from sw_hps.app import HEALTHY_STEPS, GestureApp, GestureClassifier, GestureResult, State
 from sw_hps.bus import SimBus
 from sw_hps.fifo import CONTROL, DATO_X, FifoPeripheral, to_fixed
 from sw_hps.hmm import DiscreteHMM, GestureModels, save_models
 from sw_hps.orientation import NO_SYMBOL, orientation_symbols
-from sw_hps.robot import NullLink, telegram
-from sw_hps.simulated import SimulatedFifoPeripheral
+from sw_hps.robot import NullLink
+from sw_hps.telegram import telegram
+from sw_hps.simulated import SimulatedFifoPeripheral, run_on_trajectory, simulate_trajectory
 
 # Direction codes of each shape (sim.gesture_shapes docstring): one left-right state each.
 CODES = {"forward": [2, 6], "back": [6, 2], "right": [4, 0], "left": [0, 4],

@@ -2,7 +2,7 @@
 a stuck gesture bit, points outside the frame, unequal FIFO lengths, and the
 heartbeat; deterministic cases and property tests over arbitrary register values.
 
-Everything runs in simulated time (:class:`sw_hps.app.SimulatedClock`); log records
+Everything runs in simulated time (:class:`sw_hps.simulated.SimulatedClock`); log records
 are stamped with it by :func:`stamped` so the tests can check when a line appeared.
 """
 import contextlib
@@ -17,16 +17,15 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from sw_hps.__main__ import main, parse_args
-from sw_hps.app import (DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, GestureApp, SimulatedClock,
-                        State, run_on_trajectory)
+from sw_hps.app import DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, GestureApp, State
 from sw_hps.bus import SimBus
 from sw_hps.fifo import (CONTROL, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO, CTRL_NO_GESTURE,
                          DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT,
                          FRAME_WIDTH, LONGITUD_X, LONGITUD_Y, FifoPeripheral, to_fixed)
 from sw_hps.hmm import save_models
 from sw_hps.orientation import NO_SYMBOL, orientation_symbols
-from sw_hps.robot import GESTURE_NAMES, telegram
-from sw_hps.simulated import SimulatedFifoPeripheral
+from sw_hps.telegram import GESTURE_NAMES, telegram
+from sw_hps.simulated import SimulatedClock, SimulatedFifoPeripheral, run_on_trajectory
 from tests.test_hps_app import MODELS, RecordingLink, gesture_frames
 
 #: Poll interval of the applications under test (simulated seconds).

@@ -26,18 +26,23 @@ def tiny_models(path):
 def test_bundle_runs_alone(tmp_path):
     model = tiny_models(tmp_path / "m.json")
     names = build_bundle(model, tmp_path / "b.tar.gz")
-    assert {"sw_hps/app.py", "sw_hps/__main__.py", "model.json", "README.txt"} <= set(names)
+    assert {"sw_hps/app.py", "sw_hps/__main__.py", "soc/hps_interface.py", "model.json",
+            "README.txt"} <= set(names)
     target = tmp_path / "board"
     with tarfile.open(tmp_path / "b.tar.gz") as tar:
         tar.extractall(target, filter="data")
     assert json.loads((target / "model.json").read_text()) == json.loads(model.read_text())
     # Isolated interpreter, only the unpacked bundle on the path: the app must
-    # import with nothing of the project but sw_hps.
+    # import with nothing of the project but sw_hps and the shared interface
+    # (which imports nothing but the standard library).
     probe = (
         "import sys; sys.path.insert(0, sys.argv[1]); import sw_hps.app, sw_hps.__main__;"
+        "import soc.hps_interface;"
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
-        "('sim', 'recognition', 'stereogest', 'hdl', 'soc', 'boards'));"
+        "('sim', 'recognition', 'stereogest', 'hdl', 'soc', 'boards', 'amaranth') "
+        "and m not in ('soc', 'soc.hps_interface'));"
         "assert sw_hps.__file__.startswith(sys.argv[1]), sw_hps.__file__;"
+        "assert soc.hps_interface.__file__.startswith(sys.argv[1]);"
         "print(bad)")
     out = subprocess.run([sys.executable, "-I", "-c", probe, str(target)],
                          capture_output=True, text=True, check=True)
@@ -66,7 +71,8 @@ def test_bundle_with_a_gaussian_model_scores_alone(tmp_path):
         "m = load_models(sys.argv[1] + '/model.json');"
         "scores = m.scores_of_points(json.loads(sys.argv[2]));"
         "bad = sorted(k for k in sys.modules if k.split('.')[0] in "
-        "('sim', 'recognition', 'stereogest', 'hdl', 'soc', 'boards'));"
+        "('sim', 'recognition', 'stereogest', 'hdl', 'soc', 'boards', 'amaranth') "
+        "and k not in ('soc', 'soc.hps_interface'));"
         "assert sys.modules['sw_hps.gaussian_hmm'].__file__.startswith(sys.argv[1]);"
         "print(json.dumps({'emission': m.emission, 'scores': scores.tolist(),"
         " 'decision': m.decide(scores)[0], 'bad': bad}))")

@@ -259,8 +259,12 @@ def test_read_trajectory_csv(tmp_path):
 
 # ---- deployability ------------------------------------------------------------------------
 def test_sw_hps_imports_only_stdlib_numpy_and_itself():
+    """And the shared interface (soc/hps_interface.py, shipped with it), which
+    imports the standard library alone."""
     allowed = set(sys.stdlib_module_names) | {"numpy", "sw_hps"}
-    for path in sorted(SW_HPS.glob("*.py")):
+    files = [(path, allowed) for path in sorted(SW_HPS.glob("*.py"))]
+    files.append((SW_HPS.parent / "soc" / "hps_interface.py", set(sys.stdlib_module_names)))
+    for path, modules in files:
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]
@@ -269,17 +273,23 @@ def test_sw_hps_imports_only_stdlib_numpy_and_itself():
             else:
                 continue
             for name in names:
-                assert name.split(".")[0] in allowed, f"{path.name} imports {name}"
+                assert name.split(".")[0] in modules or (
+                    path.parent == SW_HPS and name == "soc.hps_interface"), \
+                    f"{path.name} imports {name}"
 
 
 def test_sw_hps_runs_from_a_copy_without_the_project(tmp_path):
     import shutil
+    from sw_hps.bundle import SHARED
     shutil.copytree(SW_HPS, tmp_path / "sw_hps", ignore=shutil.ignore_patterns("__pycache__"))
+    for name in SHARED:                                   # what the bundle ships besides
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        shutil.copy(SW_HPS.parent / name, tmp_path / name)
     numpy_dir = str(Path(np.__file__).parent.parent)
     # -S: no site processing, so the project's editable install is not importable.
     code = ("import sys, sw_hps.app, sw_hps.__main__, sw_hps.robot\n"
-            "assert not any(m.split('.')[0] in ('sim', 'stereogest', 'recognition', 'hdl')"
-            " for m in sys.modules), sorted(sys.modules)\n"
+            "assert not any(m.split('.')[0] in ('sim', 'stereogest', 'recognition', 'hdl',"
+            " 'amaranth') for m in sys.modules), sorted(sys.modules)\n"
             "assert sw_hps.__file__.startswith(sys.argv[1])\nprint('ok')")
     done = subprocess.run([sys.executable, "-S", "-c", code, str(tmp_path)], cwd=tmp_path,
                           env={"PYTHONPATH": f"{tmp_path}{os.pathsep}{numpy_dir}"},

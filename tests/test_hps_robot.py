@@ -6,9 +6,9 @@ import time
 import pytest
 
 from sw_hps.bus import SimBus
-from sw_hps.robot import (GESTURE_NAMES, UART_RXDATA, UART_STATUS, UART_TXDATA, NullLink,
-                          SerialLink, UartLink, configure_rn42, gesture_index,
-                          normalise_bt_address, telegram)
+from soc.hps_interface import UART_RXDATA, UART_STATUS, UART_TXDATA
+from sw_hps.robot import NullLink, SerialLink, UartLink, configure_rn42, normalise_bt_address
+from sw_hps.telegram import GESTURE_NAMES, gesture_index, telegram
 from sw_hps.simulated import SimulatedUart
 
 

@@ -15,7 +15,7 @@ import pytest
 from sim.model.pipeline import PipelineParams, run_clip
 from sim.render import render_clip
 from stereogest.cli import main
-from stereogest.commands.pipeline import recognise, shipped_model_path
+from stereogest.pipeline_outputs import recognise, shipped_model_path
 from stereogest.live import PANELS, LiveServer, LiveSession, run_source
 from sw_hps.hmm import load_models
 
@@ -101,9 +101,9 @@ def test_command_replays_a_clip(tmp_path, gesture, capsys):
     ([], "give either --clip CLIP or both --left and --right"),
     (["--left", "0"], "give either --clip CLIP or both --left and --right"),
     (["--clip", "x", "--left", "0", "--right", "1"], "give either --clip"),
-    (["--clip", "{clip}", "--port", "70000"], "--port must be an integer in [0, 65535]"),
-    (["--clip", "{clip}", "--frames", "0"], "--frames must be an integer in [1, 1800]"),
-    (["--clip", "{clip}", "--fps", "0"], "--fps must be an integer in [1, 1000]"),
+    (["--clip", "{clip}", "--port", "70000"], "--port must be in [0, 65535]"),
+    (["--clip", "{clip}", "--frames", "0"], "--frames must be in [1, 1800]"),
+    (["--clip", "{clip}", "--fps", "0"], "--fps must be in [1, 1000]"),
     (["--clip", "{tmp}/none"], "not a clip directory"),
     (["--left", "{tmp}/a.avi", "--right", "{tmp}/b.avi"], "--left: '"),
 ])

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from sim.model.centroid import Centroid, centroid
-from sim.model.features import gesture_spotting, moving_average
+from sim.model.gesture_spotting import gesture_spotting
+from sim.model.moving_average import moving_average
 from sim.model.median import median3x3
 from sim.model.morphology import dilate, opening
 from sim.model.orientation import NO_SYMBOL, orientation_symbols

@@ -12,9 +12,9 @@ from recognition.features import feature_sets, sequences
 from recognition.non_gestures import (as_centroid_tracks, random_walks, scribbles,
                                       wandering_hands)
 from recognition.recogniser import Recogniser
-from stereogest.commands.pipeline import shipped_model_path
+from stereogest.pipeline_outputs import shipped_model_path
 from sw_hps.hmm import load_models
-from sw_hps.robot import GESTURE_NAMES
+from sw_hps.telegram import GESTURE_NAMES
 
 MODELS = Path(sw_hps.__file__).parent / "models"
 

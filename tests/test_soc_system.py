@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 
 from sim.model.pipeline import run_clip
-from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, emit_core_verilog
+from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, core_ports, emit_core_verilog
 from sim.model.pipeline import video_picture
 from verif.end_to_end import frames_to_still, hold_still, run_end_to_end
 from verif.system import SystemBus, VerilatorSystem, decode_uart
-from sw_hps.robot import UART_STATUS, UART_STATUS_TX_READY, UartLink, telegram
+from soc.hps_interface import UART_STATUS, UART_STATUS_TX_READY
+from sw_hps.robot import UartLink
+from sw_hps.telegram import telegram
 from tests.test_hdl_gesture_pipeline import SMALL, small_frames
 
 W, H = 32, 16
@@ -35,6 +37,10 @@ def test_core_ports_are_the_documented_ones():
         expected[f"{domain}_rst"] = ("input", 1)
     for name, port in expected.items():
         assert ports.get(name) == port, name
+    # the list Platform Designer and the simulation wrapper are built from, taken
+    # from the signature, is the emitted Verilog's
+    assert sorted(core_ports(StereogestCore(W, H, SMALL))) == sorted(
+        verilog_ports(text, CORE_NAME))
 
 
 @pytest.mark.parametrize("kwargs, word", [

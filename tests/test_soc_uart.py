@@ -78,7 +78,7 @@ def test_rx_tolerance_at_min_divisor_amaranth_sim(rate_error):
 
     from amaranth.sim import Simulator
 
-    from sw_hps.robot import UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID, UART_TXDATA
+    from soc.hps_interface import UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID, UART_TXDATA
 
     dut = UartSlave(clk_freq=16e6, baudrate=1e6, rx_depth=64)
     rng = random.Random(5)

@@ -37,57 +37,33 @@ TOP = "stereogest_system"
 
 
 def _wrapper(core) -> str:
-    """Plain port names for the harness (Verilator mangles Amaranth's ``__``); the
-    I2C lines pulled up with no target; one reset input, registered per domain."""
-    fa = core.fifo.address.shape().width
-    ua = core.uart.address.shape().width
-    i2c = []
-    for side in ("left", "right"):
-        for line in ("scl", "sda"):
-            i2c.append(f".{side}_i2c__{line}_oe({side}_{line}_oe), "
-                       f".{side}_i2c__{line}_i(!{side}_{line}_oe)")
-    return f"""
-module {TOP}(input clk, input cam_left_clk, input cam_right_clk, input config_clk,
-  input vga_clk, input reset,
-  input left_vsync, input left_href, input [7:0] left_data,
-  input right_vsync, input right_href, input [7:0] right_data,
-  input [{fa - 1}:0] fifo_address, input fifo_read, input fifo_write,
-  input [31:0] fifo_writedata, output [31:0] fifo_readdata,
-  input [{ua - 1}:0] uart_address, input uart_read, input uart_write,
-  input [31:0] uart_writedata, output [31:0] uart_readdata,
-  output uart_tx, input uart_rx,
-  output [7:0] vga_r, output [7:0] vga_g, output [7:0] vga_b,
-  output vga_hsync, output vga_vsync, output vga_blank_n,
-  input [2:0] stage_select, input capture, input pause, input configure,
-  output [9:0] leds);
-  // Resets through a register of their domain: a primary input feeding logic
-  // makes Verilator re-evaluate all of it at every clock edge of the harness.
-  reg rst_q = 1, cam_left_rst_q = 1, cam_right_rst_q = 1, config_rst_q = 1, vga_rst_q = 1;
-  always @(posedge clk) rst_q <= reset;
-  always @(posedge cam_left_clk) cam_left_rst_q <= reset;
-  always @(posedge cam_right_clk) cam_right_rst_q <= reset;
-  always @(posedge config_clk) config_rst_q <= reset;
-  always @(posedge vga_clk) vga_rst_q <= reset;
-  wire left_scl_oe, left_sda_oe, right_scl_oe, right_sda_oe;
-  stereogest_core core(.clk(clk), .rst(rst_q),
-    .cam_left_clk(cam_left_clk), .cam_left_rst(cam_left_rst_q),
-    .cam_right_clk(cam_right_clk), .cam_right_rst(cam_right_rst_q),
-    .config_clk(config_clk), .config_rst(config_rst_q),
-    .vga_clk(vga_clk), .vga_rst(vga_rst_q),
-    .left__vsync(left_vsync), .left__href(left_href), .left__data(left_data),
-    .right__vsync(right_vsync), .right__href(right_href), .right__data(right_data),
-    .fifo__address(fifo_address), .fifo__read(fifo_read), .fifo__write(fifo_write),
-    .fifo__writedata(fifo_writedata), .fifo__readdata(fifo_readdata),
-    .uart__address(uart_address), .uart__read(uart_read), .uart__write(uart_write),
-    .uart__writedata(uart_writedata), .uart__readdata(uart_readdata),
-    .uart_tx(uart_tx), .uart_rx(uart_rx),
-    {", ".join(i2c)},
-    .vga__r(vga_r), .vga__g(vga_g), .vga__b(vga_b), .vga__hsync(vga_hsync),
-    .vga__vsync(vga_vsync), .vga__blank_n(vga_blank_n),
-    .stage_select(stage_select), .capture(capture), .pause(pause), .configure(configure),
-    .leds(leds));
-endmodule
-"""
+    """The harness's top, derived from the core's ports (:func:`soc.core.core_ports`):
+    the same names with ``__`` made ``_`` (Verilator mangles Amaranth's ``__``); one
+    ``reset`` input, registered per domain; the I2C lines pulled up with no target
+    (each ``*_i`` reads its own ``*_oe`` inverted)."""
+    from soc.core import core_ports
+    ports, connections, resets = [], [], []
+    for name, direction, width in core_ports(core):
+        if name == "rst" or name.endswith("_rst"):
+            clock = name[:-len("rst")] + "clk"
+            reg = f"{name}_q"
+            resets.append(f"  reg {reg} = 1;\n  always @(posedge {clock}) {reg} <= reset;")
+            connections.append(f".{name}({reg})")
+        elif "_i2c__" in name:
+            oe = name[:-len("_i")] + "_oe" if name.endswith("_i") else name
+            wire = oe.replace("__", "_")
+            if name == oe:
+                resets.append(f"  wire {wire};")
+            connections.append(f".{name}({'!' if name != oe else ''}{wire})")
+        else:
+            plain = name.replace("__", "_")
+            ports.append(f"{direction} {f'[{width - 1}:0] ' if width > 1 else ''}{plain}")
+            connections.append(f".{name}({plain})")
+    return (f"\nmodule {TOP}({', '.join(ports)}, input reset);\n"
+            "  // Resets through a register of their domain: a primary input feeding logic\n"
+            "  // makes Verilator re-evaluate all of it at every clock edge of the harness.\n"
+            + "\n".join(resets) + "\n"
+            f"  stereogest_core core({', '.join(connections)});\nendmodule\n")
 
 
 def _make_core(width, height, params, clocks: Clocks):
@@ -106,7 +82,8 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
                 config_ps=clocks.config_ps, emission=emission, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
-    folder = build_root() / f"system-{key}-{sources_digest(['hdl', 'soc'], [HARNESS])}"
+    digest = sources_digest(["hdl", "soc"], [HARNESS, Path(__file__)])   # the wrapper too
+    folder = build_root() / f"system-{key}-{digest}"
     exe = folder / "obj_dir" / "system_harness"
     if exe.exists():
         return exe

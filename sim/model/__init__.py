@@ -2,10 +2,11 @@
 every hardware block (thesis Guerrero-Balaguera 2016)."""
 from .census import census_bits, census_offsets, sparse_census
 from .centroid import Centroid, MomentWidths, centroid, moment_widths
-from .features import gesture_spotting, moving_average
+from .gesture_spotting import gesture_spotting
 from .matching import (disparity_maps, hamming_volume, lr_consistency, shd_volume,
                        window_sum, winner_take_all)
 from .median import median3x3
+from .moving_average import moving_average
 from .morphology import closing, dilate, erode, opening, structuring_element
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
 from .segmentation import disparity_band, hand_mask, skin_mask

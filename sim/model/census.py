@@ -12,7 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._check import check_image, check_odd_window
+from .validation import check_image, check_odd_window
 
 __all__ = ["CENSUS_WINDOW_RANGE", "census_offsets", "census_bits", "sparse_census"]
 

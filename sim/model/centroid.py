@@ -10,7 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._check import check_bool_image, check_int
+from .validation import check_bool_image, check_int
 
 __all__ = ["Centroid", "MomentWidths", "centroid", "moment_widths"]
 

@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._check import check_image, check_int, check_odd_window, check_same_shape
+from .validation import check_image, check_int, check_odd_window, check_same_shape
 
 __all__ = [
     "HAMMING_WINDOW_RANGE", "MAX_DISPARITY_RANGE", "default_no_match_cost",

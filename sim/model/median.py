@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import check_image
+from .validation import check_image
 
 __all__ = ["median3x3"]
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import check_bool_image, check_odd_window
+from .validation import check_bool_image, check_odd_window
 
-__all__ = ["structuring_element", "erode", "dilate", "opening", "closing"]
+__all__ = ["SHAPES", "structuring_element", "resolve_element", "erode", "dilate", "opening", "closing"]
 
 SHAPES = ("cross", "square", "diamond")
 _DEFAULT_SIZE = 11
@@ -53,9 +53,13 @@ def structuring_element(shape: str = "cross", size: int = _DEFAULT_SIZE) -> np.n
     raise ValueError(f"shape must be one of {SHAPES}, got {shape!r}")
 
 
-def _resolve_element(element, size) -> np.ndarray:
-    """Return the element as a bool array with an odd side and at least one tap."""
+def resolve_element(element, size) -> np.ndarray:
+    """A structuring element, named (``shape``, ``size``) or an array, as a bool
+    array with an odd side and at least one tap; ``ValueError`` otherwise."""
     if isinstance(element, str):
+        if element not in SHAPES:
+            raise ValueError(f"element must be one of {SHAPES} or an odd square bool array, "
+                             f"got {element!r}")
         return structuring_element(element, _DEFAULT_SIZE if size is None else size)
     if size is not None:
         raise ValueError("size applies only to a named element; "
@@ -140,7 +144,7 @@ def erode(mask, element="cross", *, size: int | None = None) -> np.ndarray:
         On a malformed mask or element, or a bad ``size``.
     """
     mask = check_bool_image("mask", mask)
-    return _morph(mask, _resolve_element(element, size), np.logical_and, True)
+    return _morph(mask, resolve_element(element, size), np.logical_and, True)
 
 
 def dilate(mask, element="cross", *, size: int | None = None) -> np.ndarray:
@@ -160,7 +164,7 @@ def dilate(mask, element="cross", *, size: int | None = None) -> np.ndarray:
         On a malformed mask or element, or a bad ``size``.
     """
     mask = check_bool_image("mask", mask)
-    return _morph(mask, _resolve_element(element, size), np.logical_or, False)
+    return _morph(mask, resolve_element(element, size), np.logical_or, False)
 
 
 def opening(mask, element="cross", *, size: int | None = None) -> np.ndarray:
@@ -180,7 +184,7 @@ def opening(mask, element="cross", *, size: int | None = None) -> np.ndarray:
         On a malformed mask or element, or a bad ``size``.
     """
     mask = check_bool_image("mask", mask)
-    element = _resolve_element(element, size)
+    element = resolve_element(element, size)
     return _morph(_morph(mask, element, np.logical_and, True), element, np.logical_or, False)
 
 
@@ -200,7 +204,7 @@ def closing(mask, element="cross", *, size: int | None = None) -> np.ndarray:
         On a malformed mask or element, or a bad ``size``.
     """
     mask = check_bool_image("mask", mask)
-    element = _resolve_element(element, size)
+    element = resolve_element(element, size)
     return _morph(_morph(mask, element, np.logical_or, False), element, np.logical_and, True)
 
 

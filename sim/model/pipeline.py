@@ -26,14 +26,15 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._check import check_int
 from .centroid import Centroid, centroid
-from .features import gesture_spotting, moving_average
+from .gesture_spotting import gesture_spotting
 from .median import median3x3
 from .morphology import opening, structuring_element
+from .moving_average import moving_average
 from .orientation import NO_SYMBOL, orientation_symbols
 from .segmentation import disparity_band, hand_mask, skin_mask
 from .stereo import check_stereo_params, stereo_match
+from .validation import check_int
 from .ycbcr import ycbcr422_to_444
 
 __all__ = ["PipelineParams", "DEMO_SPOT_HOLD", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",

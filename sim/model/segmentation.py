@@ -8,21 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import check_bool_image, check_image, check_int, check_same_shape
+from .validation import (check_bool_image, check_byte_range, check_image, check_int,
+                         check_same_shape)
 
 __all__ = ["skin_mask", "disparity_band", "hand_mask", "check_band"]
-
-
-def _check_range(name: str, value) -> tuple[int, int]:
-    """Return ``value`` as ``(lo, hi)`` with ``0 <= lo <= hi <= 255``."""
-    try:
-        lo, hi = value
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (lo, hi) with 0 <= lo <= hi <= 255, "
-                         f"got {value!r}") from None
-    lo = check_int(f"{name}[0]", lo, 0, 255)
-    hi = check_int(f"{name}[1]", hi, lo, 255)
-    return lo, hi
 
 
 def skin_mask(cb, cr, cb_range=(77, 127), cr_range=(133, 173)) -> np.ndarray:
@@ -49,8 +38,8 @@ def skin_mask(cb, cr, cb_range=(77, 127), cr_range=(133, 173)) -> np.ndarray:
     cb = check_image("cb", cb, dtype_kind="u", max_value=255)
     cr = check_image("cr", cr, dtype_kind="u", max_value=255)
     check_same_shape(cb=cb, cr=cr)
-    cb_lo, cb_hi = _check_range("cb_range", cb_range)
-    cr_lo, cr_hi = _check_range("cr_range", cr_range)
+    cb_lo, cb_hi = check_byte_range("cb_range", cb_range)
+    cr_lo, cr_hi = check_byte_range("cr_range", cr_range)
     return (cb >= cb_lo) & (cb <= cb_hi) & (cr >= cr_lo) & (cr <= cr_hi)
 
 

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._check import check_image, check_int, check_odd_window, check_same_shape
+from .validation import check_image, check_int, check_odd_window, check_same_shape
 from .census import CENSUS_WINDOW_RANGE, census_bits, sparse_census
 from .matching import (HAMMING_WINDOW_RANGE, default_no_match_cost, disparity_maps,
                        lr_consistency)

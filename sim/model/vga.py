@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import check_image, check_int
+from .validation import check_image, check_int
 
 __all__ = ["VGA_CHANNELS", "grey_levels", "vga_frame"]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import check_image, check_same_shape
+from .validation import check_image, check_same_shape
 
 __all__ = ["ycbcr422_to_444", "ycbcr444_to_422"]
 

@@ -71,20 +71,20 @@ def _say(quiet: bool):
 
 def run(args) -> int:
     from sim.model.pipeline import PipelineParams
-    from sim.footage import check_option
+    from sim.model.validation import check_int
     from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
     from stereogest.commands import OutputDir
-    from stereogest.commands.pipeline import shipped_model_path
+    from stereogest.pipeline_outputs import shipped_model_path
     from sw_hps.hmm import load_models
 
     # Every option checked before anything is created or rendered.
     if args.threads is not None:
-        check_option("--threads", args.threads, 1, 64)
+        check_int("--threads", args.threads, 1, 64)
     if args.clip is None:
-        check_option("--seed", args.seed, 0, 2 ** 63 - 1)
+        check_int("--seed", args.seed, 0, 2 ** 63 - 1)
         for option, value, (lo, hi) in (("--width", args.width, WIDTH_RANGE),
                                         ("--height", args.height, HEIGHT_RANGE)):
-            check_option(option, value, lo, hi)
+            check_int(option, value, lo, hi)
             if value % 2:
                 raise ValueError(f"{option} must be even, in [{lo}, {hi}], got {value}")
     if not -1 <= args.pre_rest <= MAX_SEGMENT_FRAMES:
@@ -109,8 +109,8 @@ def _demo(args, clip, params, models, say, out) -> int:
     from sim.images import write_png
     from sim.model.pipeline import run_clip
     from sim.render import render_clip
-    from stereogest.commands.pipeline import (STALE, parse_frames, progress_printer, recognise,
-                                              write_outputs)
+    from stereogest.pipeline_outputs import (STALE, parse_frames, progress_printer, recognise,
+                                             write_outputs)
 
     start = time.perf_counter()
     if args.clip is not None:

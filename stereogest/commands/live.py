@@ -50,9 +50,10 @@ def add_arguments(p):
 def run(args) -> int:
     import time
 
-    from sim.footage import MAX_FRAMES, StereoSource, check_option
+    from sim.footage import MAX_FRAMES, StereoSource
+    from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
-    from stereogest.commands.pipeline import shipped_model_path
+    from stereogest.pipeline_outputs import shipped_model_path
     from stereogest.live import LiveServer, LiveSession, run_source
     from sw_hps.hmm import load_models
 
@@ -63,11 +64,11 @@ def run(args) -> int:
         if args.clip is not None and value is not None:
             raise ValueError(f"{option} applies to --left/--right; a clip keeps its own size")
     if args.fps is not None:
-        check_option("--fps", args.fps, 1, 1000)
+        check_int("--fps", args.fps, 1, 1000)
     if args.frames is not None:
-        check_option("--frames", args.frames, 1, MAX_FRAMES)
-    check_option("--port", args.port, 0, 65535)
-    check_option("--threads", args.threads, 1, 64)
+        check_int("--frames", args.frames, 1, MAX_FRAMES)
+    check_int("--port", args.port, 0, 65535)
+    check_int("--threads", args.threads, 1, 64)
     models = load_models(args.model or shipped_model_path())
     if args.clip is not None:
         from sim.clip import load_clip

@@ -11,15 +11,12 @@ from __future__ import annotations
 import json
 import sys
 import time
-from pathlib import Path
+
+from stereogest.pipeline_outputs import (STALE, parse_frames, progress_printer, recognise,
+                                         shipped_model_path, warn_if_empty, write_outputs)
 
 NAME = "pipeline"
 HELP = "golden model of the FPGA pipeline over a clip: trajectory.csv and stage pictures"
-
-STAGES = ("left", "right", "disparity", "skin", "band", "opening")
-#: What a run writes, deleted from a reused output folder first.
-STALE = ("frame_*_*.png", "trajectory.csv", "trajectory.png", "summary.json")
-
 
 def add_arguments(p):
     p.add_argument("clip", metavar="CLIP",
@@ -49,120 +46,9 @@ def add_arguments(p):
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
 
 
-def parse_frames(text: str | None, frames: int, motion: tuple[int, int] | None) -> list[int]:
-    """Frames to draw: ``text`` ("3,10,40"), or by default a rest frame, the middle
-    of the motion and its end (the first, middle and last frame without truth)."""
-    if text is None and motion is None:
-        return sorted({0, frames // 2, frames - 1})
-    if text is None:
-        first, last = motion
-        chosen = {max(0, first - 5), (first + last) // 2, min(frames - 1, last)}
-        return sorted(chosen)
-    try:
-        chosen = sorted({int(tok) for tok in text.split(",") if tok.strip()})
-    except ValueError:
-        raise ValueError(f"--frames must be comma-separated integers, got {text!r}") from None
-    if not chosen:
-        raise ValueError(f"--frames must list at least one frame number, got {text!r}")
-    bad = [n for n in chosen if not 0 <= n < frames]
-    if bad:
-        raise ValueError(f"--frames must be in [0, {frames - 1}], got {bad}")
-    return chosen
-
-
-def write_outputs(outdir: Path, clip, trajectory, kept, params, seconds: float,
-                  recognised: str | None = None, telegram: str | None = None) -> dict:
-    """trajectory.csv, frame_NNNN_<stage>.png, frame_NNNN_sheet.png (the stages
-    labelled, for people), trajectory.png, summary.json."""
-    from sim.images import write_png
-    from sim.pictures import disparity_picture, mask_picture, stage_sheet, trajectory_picture
-
-    outdir.mkdir(parents=True, exist_ok=True)
-    scale = 1 << params.frac_bits
-    lines = ["frame,x,y,flag,symbol"]
-    for n in range(len(trajectory.flag)):
-        x, y = trajectory.smoothed[n] / scale
-        lines.append(f"{n},{x:.4f},{y:.4f},{int(trajectory.flag[n])},{int(trajectory.symbol[n])}")
-    tmp = outdir / "trajectory.csv.part"
-    tmp.write_text("\n".join(lines) + "\n")
-    tmp.replace(outdir / "trajectory.csv")
-    for n, st in kept.items():
-        pictures = {"left": st.left, "right": st.right,
-                    "disparity": disparity_picture(st.disparity, params.max_disparity),
-                    "skin": mask_picture(st.skin), "band": mask_picture(st.band),
-                    "opening": mask_picture(st.opened)}
-        for stage in STAGES:
-            write_png(outdir / f"frame_{n:04d}_{stage}.png", pictures[stage], bits=8)
-        centroid = tuple(trajectory.centroid[n]) if trajectory.area[n] else None
-        panels = {"left camera": st.left, "right camera": st.right,
-                  "disparity": st.disparity, "skin (Cb/Cr box)": st.skin,
-                  "disparity band": st.band, "opening": st.opened}
-        write_png(outdir / f"frame_{n:04d}_sheet.png",
-                  stage_sheet(n, panels, centroid, bool(trajectory.flag[n]),
-                              params.max_disparity), bits=8)
-    background = next(iter(kept.values())).left if kept else None
-    if background is not None:
-        write_png(outdir / "trajectory.png",
-                  trajectory_picture(background, trajectory.smoothed, trajectory.flag,
-                                     params.frac_bits), bits=8)
-    symbols = [int(s) for s in trajectory.symbol if s >= 0]
-    summary = {"clip": str(clip.path) if getattr(clip, "path", None) else None,
-               "gesture": clip.gesture, "frames": len(trajectory.flag),
-               "gesture_frames": int(trajectory.flag.sum()),
-               "symbols": "".join(str(s) for s in symbols),
-               "recognised": recognised, "telegram": telegram,
-               "seconds": round(seconds, 2), "params": params.as_dict()}
-    tmp = outdir / "summary.json.part"
-    tmp.write_text(json.dumps(summary, indent=2) + "\n")
-    tmp.replace(outdir / "summary.json")
-    return summary
-
-
-def progress_printer(quiet: bool):
-    start = time.perf_counter()
-
-    def show(done: int, total: int) -> None:
-        if quiet or not (done == total or done % 10 == 0):
-            return
-        rate = done / max(1e-9, time.perf_counter() - start)
-        print(f"  frame {done}/{total} ({rate:.1f} frames/s)", file=sys.stderr, flush=True)
-    return show
-
-
-def shipped_model_path() -> Path:
-    """The trained HMM model shipped with the board application (``make model``
-    rebuilds it)."""
-    import sw_hps
-    return Path(sw_hps.__file__).parent / "models" / "gestures7.json"
-
-
-def recognise(models, trajectory):
-    """The board application on a trajectory (a simulated FIFO): the last
-    recognised gesture (None) and its NXT telegram (hex, or None)."""
-    from sw_hps.app import run_on_trajectory
-    board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
-                              trajectory.flag, pixels=False)
-    recognised = board.recognised[-1] if board.recognised else None
-    telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
-    return recognised, telegram
-
-
-def warn_if_empty(trajectory, params, width: int, height: int, quiet: bool = False) -> None:
-    """Say on stderr when the opening found no hand at all, or no gesture was
-    flagged (the results then name no gesture, which is not an error)."""
-    if not trajectory.area.any():
-        print(f"warning: the opening found no hand in any of {len(trajectory.area)} frames "
-              f"(at {width}x{height} a {params.opening_size}x{params.opening_size} opening "
-              f"can erase a small hand; try a larger frame)", file=sys.stderr)
-    elif not trajectory.flag.any():
-        print(f"warning: no gesture was flagged (the hand never moved Tm = "
-              f"{params.spot_threshold} px within {params.spot_window} frames)",
-              file=sys.stderr)
-
-
 def run(args) -> int:
     from sim.clip import load_clip
-    from sim.footage import check_option
+    from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
     from stereogest.commands import OutputDir
     from sw_hps.hmm import load_models
@@ -176,7 +62,7 @@ def run(args) -> int:
     params = PipelineParams.for_frame(clip.width, **overrides)
     params.validate(clip.width, clip.height)
     if args.threads is not None:
-        check_option("--threads", args.threads, 1, 64)
+        check_int("--threads", args.threads, 1, 64)
     with OutputDir(args.output, stale=STALE) as outdir:
         return _run(args, clip, params, models, chosen, outdir)
 

@@ -56,7 +56,7 @@ def add_arguments(p):
 
 def run(args) -> int:
     from sim.images import read_grey, write_png
-    from sim.model.stereo import stereo_match
+    from sim.model.stereo import check_stereo_params, stereo_match
     from stereogest.commands import check_output_file
 
     check_output_file(args.output)
@@ -67,21 +67,18 @@ def run(args) -> int:
         raise ValueError(f"LEFT is {left.shape[1]}x{left.shape[0]} but RIGHT is "
                          f"{right.shape[1]}x{right.shape[0]}: the pair must have one size")
     backend = getattr(args, "backend", "model")
+    matcher = dict(census_window=args.census_window, hamming_window=args.hamming_window,
+                   max_disparity=args.max_disparity, lrcc_threshold=args.lrcc_threshold,
+                   no_match_cost=args.no_match_cost)
+    check_stereo_params(left.shape[1], left.shape[0], **matcher)     # before any work
     start = time.perf_counter()
-    # The model validates every parameter (and, for the hardware backends, gives
-    # the reference the hardware is equal to).
     if backend == "model":
-        result = stereo_match(left, right, census_window=args.census_window,
-                              hamming_window=args.hamming_window,
-                              max_disparity=args.max_disparity,
-                              lrcc_threshold=args.lrcc_threshold,
-                              no_match_cost=args.no_match_cost,
-                              prefilter_median=args.prefilter_median,
+        result = stereo_match(left, right, **matcher, prefilter_median=args.prefilter_median,
                               disparity_median=not args.no_disparity_median,
                               threads=args.threads)
         disp, extra = result.disparity, {}
     else:
-        disp, extra = _run_hardware(backend, left, right, args)
+        disp, extra = _run_hardware(backend, left, right, matcher, args)
     seconds = time.perf_counter() - start
     from sim.pictures import disparity_preview
     preview = preview_path(args.output)
@@ -103,26 +100,23 @@ def preview_path(output) -> Path:
     return output.with_name(f"{output.stem}_colour.png")
 
 
-def _run_hardware(backend, left, right, args):
-    """Disparity map from hdl.stereo_matcher.StereoMatcher in a simulator."""
+def _run_hardware(backend, left, right, matcher, args):
+    """Disparity map from hdl.stereo_matcher.StereoMatcher in a simulator
+    (``matcher``: the checked parameters; Th is a run-time register there)."""
     import numpy as np
 
     from sim.model.median import median3x3
-    from sim.model.stereo import check_stereo_params
 
     h, w = left.shape
-    check_stereo_params(w, h, args.census_window, args.hamming_window, args.max_disparity,
-                        args.lrcc_threshold, args.no_match_cost)
     if args.prefilter_median:
         # The input median belongs to the camera pipeline, ahead of the matcher.
         left, right = median3x3(left), median3x3(right)
-    params = dict(census_window=args.census_window, hamming_window=args.hamming_window,
-                  max_disparity=args.max_disparity, no_match_cost=args.no_match_cost,
-                  disparity_median=not args.no_disparity_median)
+    params = dict(matcher, disparity_median=not args.no_disparity_median)
+    threshold = params.pop("lrcc_threshold")
     if backend == "verilator":
         from verif.stereo import run_matcher
         try:
-            maps, stats = run_matcher([(left, right)], threshold=args.lrcc_threshold, **params)
+            maps, stats = run_matcher([(left, right)], threshold=threshold, **params)
         except (RuntimeError, OSError) as exc:
             # a failed build or run: one line, not a traceback (the CLI reports ValueError)
             raise ValueError(f"--backend verilator failed: {str(exc).splitlines()[0]}") from exc
@@ -138,7 +132,7 @@ def _run_hardware(backend, left, right, args):
     beats = [pack(layout, {"left": a, "right": b}) for a, b in zip(left.ravel(), right.ravel())]
     cycles = []
     out = run_stream(dut, beats, use_ready=True, extra_cycles=dut.latency + 16,
-                     setup=lambda ctx: ctx.set(dut.threshold, args.lrcc_threshold),
+                     setup=lambda ctx: ctx.set(dut.threshold, threshold),
                      out_cycles=cycles)
     disp = field(dut.o_stream.payload.shape(), out, "disparity").reshape(h, w)
     return disp.astype(np.uint8), {"cycles": cycles[-1] + 1}

@@ -22,8 +22,10 @@ from cocotbext.avalon import AvalonMMBus, AvalonMMMasterBFM
 from cocotbext.uart import UartSink, UartSource
 
 from soc.avalon import READ_LATENCY
-from sw_hps.robot import (GESTURE_NAMES, UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID,
-                          UART_STATUS_TX_READY, UART_TXDATA, UartLink, telegram)
+from soc.hps_interface import (GESTURE_NAMES, UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID,
+                               UART_STATUS_TX_READY, UART_TXDATA)
+from sw_hps.robot import UartLink
+from sw_hps.telegram import telegram
 
 CLK_FREQ = float(os.environ.get("CLK_FREQ", "100e6"))
 BAUD = float(os.environ.get("BAUD", "115200"))

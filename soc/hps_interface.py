@@ -1,0 +1,222 @@
+"""What the FPGA side and the HPS application agree on (thesis §7.4.1, §8.5.1):
+the lightweight bridge, where each slave sits on it, each slave's registers and
+their fields, the data format of the centroid FIFO and the gesture classes.
+
+The one definition of these facts. The hardware slaves (:mod:`soc.fifo_slave`,
+:mod:`soc.uart`) decode the registers declared here, Platform Designer places
+the slaves at :data:`SLAVE_BASES`, the board application (:mod:`sw_hps`)
+drives them with the constants below, and the renderer and the recogniser name
+the classes with :data:`GESTURE_NAMES`. Python's standard library only: the
+board bundle ships this file beside ``sw_hps`` (Python 3 + numpy on the ARM).
+
+Registers are declared the way amaranth-soc declares a peripheral's: each
+register and each field named, with its access and meaning; the flat
+``NAME = offset`` / ``NAME = mask`` constants the drivers use are derived from
+the declarations, and :meth:`RegisterMap.table` renders the map for the docs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "Field", "Register", "RegisterMap",
+    "LIGHTWEIGHT_BRIDGE_BASE", "SLAVE_WINDOW", "SLAVE_BASES", "FIFO_BASE", "UART_BASE",
+    "FIFO_REGISTERS", "UART_REGISTERS", "GESTURE_NAMES",
+    "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH", "FRAME_WIDTH", "FRAME_HEIGHT",
+    "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
+    "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
+    "CTRL_READABLE_MASK",
+    "UART_TXDATA", "UART_STATUS", "UART_RXDATA", "UART_SPAN", "UART_STATUS_TX_READY",
+    "UART_STATUS_RX_VALID",
+]
+
+#: Access kinds of registers and fields: read (a read may pop), write, read/write,
+#: read-only beside writable bits, write-one (self-clearing, reads 0).
+ACCESS = ("R", "W", "RW", "RO", "W1")
+
+
+@dataclass(frozen=True)
+class Field:
+    """Bits ``[bit + width - 1 : bit]`` of a register."""
+    name: str
+    bit: int
+    width: int
+    access: str
+    doc: str
+
+    def __post_init__(self):
+        if self.access not in ACCESS:
+            raise ValueError(f"access of field {self.name!r} must be one of {ACCESS}, "
+                             f"got {self.access!r}")
+        if not (0 <= self.bit and 1 <= self.width and self.bit + self.width <= 32):
+            raise ValueError(f"field {self.name!r} must lie in bits [31:0]")
+
+    @property
+    def mask(self) -> int:
+        """The field's bits in the register word."""
+        return ((1 << self.width) - 1) << self.bit
+
+
+@dataclass(frozen=True)
+class Register:
+    """One 32-bit register at a byte ``offset`` from the slave's base."""
+    name: str
+    offset: int
+    access: str
+    doc: str
+    fields: tuple[Field, ...] = ()
+
+    def __post_init__(self):
+        if self.access not in ACCESS or self.offset % 4:
+            raise ValueError(f"register {self.name!r}: access in {ACCESS}, offset a "
+                             f"multiple of 4")
+        used = 0
+        for f in self.fields:
+            if used & f.mask:
+                raise ValueError(f"register {self.name!r}: field {f.name!r} overlaps")
+            used |= f.mask
+
+    def __getitem__(self, name: str) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        raise KeyError(f"register {self.name!r} has no field {name!r}")
+
+    @property
+    def word(self) -> int:
+        """Word address (``offset // 4``), what the slave decodes."""
+        return self.offset // 4
+
+
+@dataclass(frozen=True)
+class RegisterMap:
+    """A slave's registers; ``span`` bytes are decoded."""
+    name: str
+    span: int
+    registers: tuple[Register, ...]
+
+    def __post_init__(self):
+        offsets = [r.offset for r in self.registers]
+        if len(set(offsets)) != len(offsets) or max(offsets) >= self.span:
+            raise ValueError(f"register map {self.name!r}: offsets must differ and lie "
+                             f"below the span {self.span:#x}")
+
+    def __getitem__(self, name: str) -> Register:
+        for r in self.registers:
+            if r.name == name:
+                return r
+        raise KeyError(f"register map {self.name!r} has no register {name!r}")
+
+    def __iter__(self):
+        return iter(self.registers)
+
+    @property
+    def address_width(self) -> int:
+        """Word-address bits the slave decodes."""
+        return max(1, (self.span // 4 - 1).bit_length())
+
+    def table(self) -> str:
+        """The map as a reStructuredText table (offset, name, access, meaning)."""
+        rows = []
+        for r in self.registers:
+            rows.append((f"{r.offset:#04x}", r.name, r.access, r.doc))
+            for f in r.fields:
+                bits = f"bits [{f.bit + f.width - 1}:{f.bit}]" if f.width > 1 else f"bit {f.bit}"
+                rows.append(("", "", "", f"{bits} {f.name} ({f.access}): {f.doc}"))
+        widths = [max(len(row[k]) for row in rows + [("offset", "name", "kind", "meaning")])
+                  for k in range(4)]
+        rule = "  ".join("=" * w for w in widths)
+        fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+        lines = [rule, fmt.format("offset", "name", "kind", "meaning").rstrip(), rule]
+        lines += [fmt.format(*row).rstrip() for row in rows]
+        return "\n".join(lines + [rule])
+
+
+# ---- the bridge -----------------------------------------------------------------
+#: Physical base address of the lightweight HPS-to-FPGA bridge (Cyclone V HPS).
+LIGHTWEIGHT_BRIDGE_BASE = 0xFF200000
+#: Bytes each slave's window takes on the bridge (slave bases are multiples of it).
+SLAVE_WINDOW = 0x100
+#: Byte offset of each slave of the core from the bridge's base.
+SLAVE_BASES = {"fifo": 0x000, "uart": 0x100}
+FIFO_BASE = SLAVE_BASES["fifo"]
+UART_BASE = SLAVE_BASES["uart"]
+
+# ---- the centroid FIFO's data ---------------------------------------------------
+#: Fractional bits of Dato_X / Dato_Y (10.8 fixed point, thesis eq. 27).
+FRAC_BITS = 8
+#: Bits used in Dato_X / Dato_Y.
+DATA_BITS = 18
+DATA_MASK = (1 << DATA_BITS) - 1
+#: Entries per FIFO in the hardware (512 x 18 bits: one M10K block per FIFO; a
+#: gesture of the thesis lasts 40-100 frames).
+FIFO_DEPTH = 512
+#: Frame size of the board in pixels (the OV5642 register table sets 640 x 480;
+#: the SoC is built at this size). Dato_X / Dato_Y lie in [0, FRAME_WIDTH) /
+#: [0, FRAME_HEIGHT).
+FRAME_WIDTH = 640
+FRAME_HEIGHT = 480
+
+#: The centroid FIFO slave (thesis §7.4.1, Table 12: registers; Table 13: Control).
+FIFO_REGISTERS = RegisterMap("fifo", span=0x18, registers=(
+    Register("Dato_X", 0x00, "R",
+             "pops the X FIFO: smoothed centroid x, unsigned 10.8 fixed point; an "
+             "empty FIFO reads 0 and pops nothing",
+             (Field("data", 0, DATA_BITS, "R", "x << FRAC_BITS (bits above read 0)"),)),
+    Register("Dato_Y", 0x04, "R", "pops the Y FIFO (same format)",
+             (Field("data", 0, DATA_BITS, "R", "y << FRAC_BITS"),)),
+    Register("reserved", 0x08, "R", "reads 0, writes ignored"),
+    Register("Control", 0x0C, "RW", "capture control and status; bits [31:5] read 0", (
+        Field("GO", 0, 1, "RW", "1 = capture runs: pairs are pushed and the gesture bit "
+                                "follows the spotting flag"),
+        Field("FIFO_DATA", 1, 1, "RO", "1 = both FIFOs hold at least one entry"),
+        Field("NO_GESTURE", 2, 1, "RO", "1 = no valid gesture in progress (the thesis "
+                                        "polarity: 0 while the spotting flag is set)"),
+        Field("FIFO_CLR", 3, 1, "W1", "writing 1 empties both FIFOs and clears FIFO_FULL"),
+        Field("FIFO_FULL", 4, 1, "RO", "sticky: a push found a FIFO full since the last "
+                                       "FIFO_CLR (that pair was dropped)"),
+    )),
+    Register("Longitud_X", 0x10, "R", "entries in the X FIFO (0..FIFO_DEPTH)"),
+    Register("Longitud_Y", 0x14, "R", "entries in the Y FIFO (0..FIFO_DEPTH)"),
+))
+
+#: The UART slave to the RN-42 Bluetooth module (thesis §8.5.1; the map is ours).
+UART_REGISTERS = RegisterMap("uart", span=0x0C, registers=(
+    Register("TXDATA", 0x00, "W", "byte to send (ignored while TX_READY is 0)",
+             (Field("data", 0, 8, "W", "the byte"),)),
+    Register("STATUS", 0x04, "R", "transmitter and receiver state", (
+        Field("TX_READY", 0, 1, "R", "the transmit holding register can take a byte"),
+        Field("RX_VALID", 1, 1, "R", "RXDATA holds a received byte"),
+    )),
+    Register("RXDATA", 0x08, "R", "pops the received byte",
+             (Field("data", 0, 8, "R", "the byte"),)),
+))
+
+# ---- constants for the drivers (derived from the declarations) ------------------
+DATO_X = FIFO_REGISTERS["Dato_X"].offset
+DATO_Y = FIFO_REGISTERS["Dato_Y"].offset
+RESERVED = FIFO_REGISTERS["reserved"].offset
+CONTROL = FIFO_REGISTERS["Control"].offset
+LONGITUD_X = FIFO_REGISTERS["Longitud_X"].offset
+LONGITUD_Y = FIFO_REGISTERS["Longitud_Y"].offset
+#: Bytes the FIFO slave decodes (six 32-bit words).
+REGISTER_SPAN = FIFO_REGISTERS.span
+CTRL_GO = FIFO_REGISTERS["Control"]["GO"].mask
+CTRL_FIFO_DATA = FIFO_REGISTERS["Control"]["FIFO_DATA"].mask
+CTRL_NO_GESTURE = FIFO_REGISTERS["Control"]["NO_GESTURE"].mask
+CTRL_FIFO_CLR = FIFO_REGISTERS["Control"]["FIFO_CLR"].mask
+CTRL_FIFO_FULL = FIFO_REGISTERS["Control"]["FIFO_FULL"].mask
+#: Bits of Control that can read 1 (FIFO_CLR always reads 0).
+CTRL_READABLE_MASK = CTRL_GO | CTRL_FIFO_DATA | CTRL_NO_GESTURE | CTRL_FIFO_FULL
+
+UART_TXDATA = UART_REGISTERS["TXDATA"].offset
+UART_STATUS = UART_REGISTERS["STATUS"].offset
+UART_RXDATA = UART_REGISTERS["RXDATA"].offset
+UART_SPAN = UART_REGISTERS.span
+UART_STATUS_TX_READY = UART_REGISTERS["STATUS"]["TX_READY"].mask
+UART_STATUS_RX_VALID = UART_REGISTERS["STATUS"]["RX_VALID"].mask
+
+# ---- the gesture classes --------------------------------------------------------
+#: The seven gestures of thesis Fig. 16 in class order: the renderer's gestures,
+#: the model files' classes and the NXT telegrams' digits (index + 1).
+GESTURE_NAMES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
