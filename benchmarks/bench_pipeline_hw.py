@@ -49,7 +49,7 @@ def timing():
               "stereo matcher": p._matcher, "segmentation": p._segment,
               "opening": p._opening}
     return {
-        "lag_per_stage": {k: getattr(s, "lag", 0) for k, s in stages.items()},
+        "lag_per_stage": {k: s.lag for k, s in stages.items()},
         "cycles_per_stage": {k: s.cycles for k, s in stages.items()},
         "flush_beats": p.flush,
         "frame_cycles": p.frame_cycles,

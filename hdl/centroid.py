@@ -16,8 +16,9 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.centroid import moment_widths
 
-from ._util import RasterPosition, bits_for, check_geometry
+from ._util import bits_for, check_geometry
 from .divider import UnsignedDivider
+from .raster_position import RasterPosition
 
 __all__ = ["Centroid"]
 
@@ -82,7 +83,7 @@ class Centroid(wiring.Component):
         w, h = self.width, self.height
         p = self.i_stream.payload
         beat = self.i_stream.valid & p.real  # flush beats do not move the position
-        pos = RasterPosition(w, h, 0, "pix").elaborate(m, beat, p.first)
+        pos = RasterPosition(w, h, 0, "pix").attach(m, beat, p.first)
         is_last = pos.registered(lambda x, y: (x == w - 1) & (y == h - 1), "last")
 
         # Moment accumulators (eq. 23); ``first`` restarts them (x = y = 0 there).

@@ -22,7 +22,8 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import RasterPosition, bits_for, check_geometry, check_int, check_odd_window, delay
+from ._util import bits_for, check_geometry, check_int, check_odd_window, delay
+from .raster_position import RasterPosition
 
 __all__ = ["ColumnSum"]
 
@@ -85,8 +86,8 @@ class ColumnSum(wiring.Component):
             self.sum_bits
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(w, h, 0, "row").elaborate(m, beat, p.first)
-        out_pos = RasterPosition(w, h, self.lag, "out").elaborate(m, beat, p.first)
+        pos = RasterPosition(w, h, 0, "row").attach(m, beat, p.first)
+        out_pos = RasterPosition(w, h, self.lag, "out").attach(m, beat, p.first)
         enter_ok = pos.registered(lambda x, y: (y >= 0) & (y < h), "enter")
         leave_ok = pos.registered(lambda x, y: (y >= wh) & (y < h + wh), "leave")
         restart = pos.registered(lambda x, y: y <= 0, "restart")

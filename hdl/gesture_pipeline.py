@@ -40,14 +40,16 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.pipeline import VIDEO_STAGES, PipelineParams
 
-from ._util import OVERRUN_ROWS, bits_for
+from ._util import bits_for
 from .camera_capture import CameraCapture
 from .centroid import Centroid
 from .gesture_spotting import GestureSpotting
 from .median3x3 import Median3x3
 from .moving_average import MovingAverage
 from .opening import Opening
+from .raster_position import OVERRUN_ROWS
 from .segmentation import HandSegmentation
+from .stage import PixelStage
 from .stereo_matcher import StereoMatcher
 from .stereo_sync import StereoSynchronizer
 from .ycbcr422 import YCbCr422To444
@@ -122,9 +124,10 @@ class GesturePipeline(wiring.Component):
         self._spotting = GestureSpotting(point_bits=coord + p.frac_bits, window=p.spot_window,
                                          threshold=p.spot_threshold, hold=p.spot_hold,
                                          frac_bits=p.frac_bits)
-        pixel_stages = [self._to444[0], med, mat, self._segment, self._opening]
+        pixel_stages: list[PixelStage] = [self._to444[0], med, mat, self._segment,
+                                          self._opening]
         #: flush beats per frame: the look-ahead of every window stage
-        self.flush = sum(getattr(s, "lag", 0) for s in pixel_stages)
+        self.flush = sum(s.lag for s in pixel_stages)
         if self.flush > OVERRUN_ROWS * width:
             raise ValueError(f"the windows look {self.flush} beats ahead, more than "
                              f"{OVERRUN_ROWS} rows of width {width}: use smaller windows")

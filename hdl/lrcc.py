@@ -16,7 +16,8 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import RasterPosition, bits_for, check_geometry, check_int, delay
+from ._util import bits_for, check_geometry, check_int, delay
+from .raster_position import RasterPosition
 
 __all__ = ["LeftRightCheck"]
 
@@ -59,7 +60,7 @@ class LeftRightCheck(wiring.Component):
         nd, db = self.max_disparity, self.disparity_bits
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(self.width, self.height, self.lag, "pix").elaborate(m, beat, p.first)
+        pos = RasterPosition(self.width, self.height, self.lag, "pix").attach(m, beat, p.first)
 
         l2r_hist = [p.l2r]
         r2l_hist = [p.r2l]

@@ -22,7 +22,8 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import RasterPosition, bits_for, check_geometry, check_int, delay
+from ._util import bits_for, check_geometry, check_int, delay
+from .raster_position import RasterPosition
 
 __all__ = ["DisparitySelectors"]
 
@@ -67,7 +68,7 @@ class DisparitySelectors(wiring.Component):
         nd, cb, db = self.max_disparity, self.cost_bits, self.disparity_bits
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(self.width, self.height, 0, "pix").elaborate(m, beat, p.first)
+        pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # L2R: pipelined tree; a pair's second (larger d) wins only if strictly cheaper.
         nodes = [(p.cost[d], d) for d in range(nd)]

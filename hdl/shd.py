@@ -20,9 +20,10 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import RasterPosition, check_geometry, check_int, check_odd_window, delay
+from ._util import check_geometry, check_int, check_odd_window, delay
 from .column_sum import ColumnSum
 from .hamming import HammingDistances
+from .raster_position import RasterPosition
 from .window_sum import WindowSum
 
 __all__ = ["SumOfHammingDistances"]
@@ -91,7 +92,7 @@ class SumOfHammingDistances(wiring.Component):
         nd, cb = self.max_disparity, self.census_bits
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(self.width, self.height, 0, "pix").elaborate(m, beat, p.first)
+        pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # Delay lines of the right codes in bit-plane order (what HammingDistances
         # takes): bit k of `right{win}_bit{j}` is bit j of the code at raster

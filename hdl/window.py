@@ -19,8 +19,8 @@ from amaranth.hdl import Cat, Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import (PIXEL_BITS_RANGE, RasterPosition, check_geometry, check_int,
-                    check_odd_window, delay)
+from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window, delay
+from .raster_position import RasterPosition
 from .row_buffer import RowBuffer
 
 __all__ = ["WindowGenerator"]
@@ -80,7 +80,7 @@ class WindowGenerator(wiring.Component):
         first = self.i_stream.payload.first
 
         # Window position and border masks, computed at the input beat.
-        pos = RasterPosition(w, h, self.lag, "centre").elaborate(m, beat, first)
+        pos = RasterPosition(w, h, self.lag, "centre").attach(m, beat, first)
         # (registered flags: comparisons with constants, done for the next position)
         rows1 = pos.sliding_flags(win, r, h + r, "y", "rows1")
         cols = pos.sliding_flags(win, r, w + r, "x", "cols")

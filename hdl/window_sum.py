@@ -15,8 +15,8 @@ from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import RasterPosition, bits_for, check_geometry, check_int, check_odd_window, delay, \
-    replicate
+from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
+from .raster_position import RasterPosition
 
 #: Disparities whose delay lines and accumulators share one copy of the beat
 #: and of the row flags.
@@ -93,8 +93,8 @@ class WindowSum(wiring.Component):
         p = self.i_stream.payload
         first = delay(m, self.i_stream.valid & p.first, 1, "first_in")
         csum = delay(m, p.csum.as_value(), 1, "csum_in")
-        pos = RasterPosition(w, h, 0, "col").elaborate(m, beat, first)
-        out_pos = RasterPosition(w, h, self.lag, "out").elaborate(m, beat, first)
+        pos = RasterPosition(w, h, 0, "col").attach(m, beat, first)
+        out_pos = RasterPosition(w, h, self.lag, "out").attach(m, beat, first)
         # Cycle 1 (the registered beat): the position flags, the column sum and the
         # one leaving the window, registered; the delay line advances.
         # Cycle-2 flags, one copy per group too:

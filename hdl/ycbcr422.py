@@ -17,7 +17,8 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import RasterPosition, check_geometry, delay
+from ._util import check_geometry, delay
+from .raster_position import RasterPosition
 
 __all__ = ["YCbCr422To444"]
 
@@ -65,7 +66,7 @@ class YCbCr422To444(wiring.Component):
         m = Module()
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(self.width, self.height, self.lag, "pix").elaborate(m, beat, p.first)
+        pos = RasterPosition(self.width, self.height, self.lag, "pix").attach(m, beat, p.first)
 
         # Words t - 1 and t - 2 (beat-gated, so idle cycles change nothing).
         luma1 = Signal(8)

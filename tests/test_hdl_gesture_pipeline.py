@@ -114,3 +114,15 @@ def test_parameters_are_validated_before_building():
     with pytest.raises(ValueError, match="params"):
         GesturePipeline(32, 16, {"census_window": 3})
     assert VIDEO_STAGES == ("right", "left", "disparity", "skin", "band", "opening")
+
+
+def test_pixel_stages_declare_the_stage_protocol():
+    """Each pixel stage states lag, cycles and memory_bits (hdl.stage.PixelStage);
+    the pipeline's flush is the sum of their look-aheads."""
+    from hdl.stage import PixelStage
+    pipeline = GesturePipeline(32, 16, SMALL)
+    stages = [pipeline._to444[0], pipeline._median[0], pipeline._matcher, pipeline._segment,
+              pipeline._opening]
+    assert all(isinstance(s, PixelStage) for s in stages)
+    assert pipeline.flush == sum(s.lag for s in stages) > 0
+    assert not isinstance(object(), PixelStage)
