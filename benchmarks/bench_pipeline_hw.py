@@ -44,10 +44,9 @@ EQ40_CYCLES = 325_293
 
 def timing():
     from hdl.gesture_pipeline import GesturePipeline
-    p = GesturePipeline(WIDTH, HEIGHT)
-    stages = {"4:2:2 -> 4:4:4": p._to444[0], "median": p._median[0],
-              "stereo matcher": p._matcher, "segmentation": p._segment,
-              "opening": p._opening}
+    p = GesturePipeline(WIDTH, HEIGHT)          # built: the memory bits need the stages
+    stages = dict(zip(("4:2:2 -> 4:4:4", "median", "stereo matcher", "segmentation",
+                       "opening"), p.pixel_stages))
     return {
         "lag_per_stage": {k: s.lag for k, s in stages.items()},
         "cycles_per_stage": {k: s.cycles for k, s in stages.items()},
@@ -194,12 +193,13 @@ def blocks():
                                            flush=p.flush, left_domain="sync",
                                            right_domain="sync")),
         ("ycbcr422", YCbCr422To444(WIDTH, HEIGHT)),
-        ("median_luma", Median3x3(WIDTH, HEIGHT, 8)),
+        ("median_luma", Median3x3(WIDTH, HEIGHT, pixel_bits=8)),
         ("segmentation", p._segment),
-        ("opening", Opening(WIDTH, HEIGHT, "cross", 11)),
+        ("opening", Opening(WIDTH, HEIGHT, element="cross", size=11)),
         ("centroid", Centroid(WIDTH, HEIGHT)),
-        ("moving_average", MovingAverage(10, 4, 8)),
-        ("gesture_spotting", GestureSpotting(18, 8, 30, 16, 8)),
+        ("moving_average", MovingAverage(coord_bits=10, window=4, frac_bits=8)),
+        ("gesture_spotting", GestureSpotting(point_bits=18, window=8, threshold=30, hold=16,
+                                             frac_bits=8)),
     ]
 
 

@@ -76,7 +76,7 @@ def amaranth_speed():
     from hdl.stereo_matcher import StereoMatcher
     w, h = 48, 32
     rng = np.random.default_rng(0)
-    dut = StereoMatcher(w, h, 5, 5, 16)
+    dut = StereoMatcher(w, h, census_window=5, hamming_window=5, max_disparity=16)
     layout = dut.i_stream.payload.shape()
     beats = [pack(layout, {"left": int(a), "right": int(b)})
              for a, b in zip(rng.integers(0, 256, w * h), rng.integers(0, 256, w * h))]

@@ -15,9 +15,16 @@ from amaranth.lib.wiring import In, Out
 from sim.model.census import CENSUS_WINDOW_RANGE, census_offsets
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window
-from .window import WindowGenerator
+from .stage import StageTiming
+from .window import WindowGenerator, window_timing
 
-__all__ = ["SparseCensus"]
+__all__ = ["SparseCensus", "census_timing"]
+
+
+def census_timing(width: int, census_window: int) -> StageTiming:
+    """The census window's look-ahead; its cycles and the comparison register."""
+    window = window_timing(width, census_window)
+    return StageTiming(lag=window.lag, cycles=window.cycles + 1)
 
 
 class SparseCensus(wiring.Component):
@@ -51,8 +58,7 @@ class SparseCensus(wiring.Component):
         self.bits = len(self.offsets)
         self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=census_window,
                                        separation=separation)
-        self.lag = self._window.lag
-        self.cycles = self._window.cycles + 1
+        self.lag, self.cycles = census_timing(self.width, census_window)
         self.memory_bits = self._window.memory_bits
         fields = {"first": 1, "real": 1, "code": self.bits}
         if separation:

@@ -17,10 +17,18 @@ from amaranth.lib.wiring import In, Out
 from sim.model.centroid import moment_widths
 
 from ._util import bits_for, check_geometry
-from .divider import UnsignedDivider
+from .divider import UnsignedDivider, divider_cycles
 from .raster_position import RasterPosition
+from .streams import pixel_signature
 
-__all__ = ["Centroid"]
+__all__ = ["Centroid", "centroid_cycles_after_frame"]
+
+
+def centroid_cycles_after_frame(width: int, height: int) -> int:
+    """Clock cycles from the frame's last pixel beat to the centroid's beat: one
+    to see the beat, the wider division, one output register."""
+    widths = moment_widths(width, height)
+    return divider_cycles(max(widths.m10, widths.m01)) + 2
 
 
 class Centroid(wiring.Component):
@@ -61,7 +69,7 @@ class Centroid(wiring.Component):
         self.widths = moment_widths(self.width, self.height)
         self._div_x = UnsignedDivider(dividend_bits=self.widths.m10, divisor_bits=self.widths.m00)
         self._div_y = UnsignedDivider(dividend_bits=self.widths.m01, divisor_bits=self.widths.m00)
-        self.cycles_after_frame = max(self._div_x.cycles, self._div_y.cycles) + 2
+        self.cycles_after_frame = centroid_cycles_after_frame(self.width, self.height)
         # The dividers latch the moments on the start; the next start (one frame
         # later) must find them idle, so a frame must outlast a division.
         if self.width * self.height <= self.cycles_after_frame:
@@ -71,8 +79,7 @@ class Centroid(wiring.Component):
         self.x_bits = bits_for(self.width - 1)
         self.y_bits = bits_for(self.height - 1)
         super().__init__({
-            "i_stream": In(stream.Signature(data.StructLayout(
-                {"first": 1, "real": 1, "pixel": 1}), always_ready=True)),
+            "i_stream": In(pixel_signature(1, real=True)),
             "o_stream": Out(stream.Signature(data.StructLayout(
                 {"x": self.x_bits, "y": self.y_bits, "area": self.widths.m00}),
                 always_ready=True)),

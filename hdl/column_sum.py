@@ -24,8 +24,14 @@ from amaranth.lib.wiring import In, Out
 
 from ._util import bits_for, check_geometry, check_int, check_odd_window, delay
 from .raster_position import RasterPosition
+from .stage import StageTiming
 
-__all__ = ["ColumnSum"]
+__all__ = ["ColumnSum", "column_sum_timing"]
+
+
+def column_sum_timing(width: int, hamming_window: int) -> StageTiming:
+    """Look-ahead r * width rows (r = Wh // 2) and 2 cycles."""
+    return StageTiming(lag=(hamming_window // 2) * width, cycles=ColumnSum.cycles)
 
 
 class ColumnSum(wiring.Component):
@@ -67,7 +73,7 @@ class ColumnSum(wiring.Component):
         self.term_bits = bits_for(self.max_term)
         self.sum_bits = bits_for(self.hamming_window * self.max_term)
         self.radius = self.hamming_window // 2
-        self.lag = self.radius * self.width
+        self.lag = column_sum_timing(self.width, self.hamming_window).lag
         self.memory_bits = sum(self.width - d for d in range(self.max_disparity)) * self.sum_bits
         nd = self.max_disparity
         super().__init__({

@@ -15,9 +15,14 @@ from amaranth.lib.wiring import In, Out
 
 from ._util import check_int
 
-__all__ = ["UnsignedDivider", "OPERAND_BITS_RANGE"]
+__all__ = ["UnsignedDivider", "OPERAND_BITS_RANGE", "divider_cycles"]
 
 OPERAND_BITS_RANGE = (1, 64)
+
+
+def divider_cycles(dividend_bits: int) -> int:
+    """The ``start`` cycle, then one cycle per quotient bit."""
+    return dividend_bits + 1
 
 
 class UnsignedDivider(wiring.Component):
@@ -70,7 +75,7 @@ class UnsignedDivider(wiring.Component):
     def __init__(self, dividend_bits: int, divisor_bits: int):
         self.dividend_bits = check_int("dividend_bits", dividend_bits, *OPERAND_BITS_RANGE)
         self.divisor_bits = check_int("divisor_bits", divisor_bits, *OPERAND_BITS_RANGE)
-        self.cycles = self.dividend_bits + 1
+        self.cycles = divider_cycles(self.dividend_bits)
         super().__init__({
             "start": In(1),
             "dividend": In(self.dividend_bits),

@@ -34,27 +34,32 @@ spotting see the clip without that frame (as if the camera had dropped it).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 from amaranth.hdl import ClockDomain, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
+from sim.model.morphology import resolve_element
 from sim.model.pipeline import VIDEO_STAGES, PipelineParams
 
 from ._util import bits_for
 from .camera_capture import CameraCapture
-from .centroid import Centroid
+from .centroid import Centroid, centroid_cycles_after_frame
 from .gesture_spotting import GestureSpotting
-from .median3x3 import Median3x3
+from .median3x3 import Median3x3, median_timing
 from .moving_average import MovingAverage
-from .opening import Opening
+from .opening import Opening, opening_timing
 from .raster_position import OVERRUN_ROWS
 from .segmentation import HandSegmentation
-from .stage import PixelStage
-from .stereo_matcher import StereoMatcher
+from .stage import PixelStage, StageTiming
+from .stereo_matcher import StereoMatcher, matcher_timing
 from .stereo_sync import StereoSynchronizer
+from .streams import connect_remapped, pixel_signature
 from .ycbcr422 import YCbCr422To444
 
-__all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop"]
+__all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop", "pipeline_timing",
+           "PipelineTiming"]
 
 
 
@@ -66,6 +71,43 @@ def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
         "x": coord + frac_bits, "y": coord + frac_bits, "flag": 1,
         "centroid_x": coord, "centroid_y": coord, "area": bits_for(width * height),
     })
+
+
+class PipelineTiming(NamedTuple):
+    """The pipeline's timing figures (:func:`pipeline_timing`)."""
+    #: flush beats per frame: the look-ahead of every window stage
+    flush: int
+    #: clock cycles from a pixel beat to its opened-mask beat (free-running part)
+    pixel_cycles: int
+    #: clock cycles per frame, cameras never starving the pipeline
+    frame_cycles: int
+    #: clock cycles from a frame's last pixel leaving the synchroniser to its record
+    record_cycles: int
+
+
+def pipeline_timing(width: int, height: int,
+                    params: PipelineParams = PipelineParams()) -> PipelineTiming:
+    """The timing of :class:`GesturePipeline` from its parameters alone (nothing
+    is built): each stage's ``*_timing`` function, the one its component uses.
+
+    Raises ``ValueError`` as :meth:`PipelineParams.validate` does, or when the
+    windows look further ahead than the position counters run past a frame.
+    """
+    params.validate(width, height)
+    p = params
+    element = resolve_element(p.opening_shape, p.opening_size)
+    pixel = [StageTiming(YCbCr422To444.lag, YCbCr422To444.cycles), median_timing(width),
+             matcher_timing(width, p.census_window, p.hamming_window, p.max_disparity),
+             StageTiming(HandSegmentation.lag, HandSegmentation.cycles),
+             opening_timing(width, element)]
+    flush = sum(s.lag for s in pixel)
+    if flush > OVERRUN_ROWS * width:
+        raise ValueError(f"the windows look {flush} beats ahead, more than "
+                         f"{OVERRUN_ROWS} rows of width {width}: use smaller windows")
+    pixel_cycles = sum(s.cycles for s in pixel)
+    record_cycles = (flush + pixel_cycles + centroid_cycles_after_frame(width, height)
+                     + MovingAverage.cycles + GestureSpotting.cycles + 1)
+    return PipelineTiming(flush, pixel_cycles, width * height + flush, record_cycles)
 
 
 class GesturePipeline(wiring.Component):
@@ -124,21 +166,13 @@ class GesturePipeline(wiring.Component):
         self._spotting = GestureSpotting(point_bits=coord + p.frac_bits, window=p.spot_window,
                                          threshold=p.spot_threshold, hold=p.spot_hold,
                                          frac_bits=p.frac_bits)
-        pixel_stages: list[PixelStage] = [self._to444[0], med, mat, self._segment,
-                                          self._opening]
-        #: flush beats per frame: the look-ahead of every window stage
-        self.flush = sum(s.lag for s in pixel_stages)
-        if self.flush > OVERRUN_ROWS * width:
-            raise ValueError(f"the windows look {self.flush} beats ahead, more than "
-                             f"{OVERRUN_ROWS} rows of width {width}: use smaller windows")
-        #: clock cycles from a pixel beat to its opened-mask beat (free-running part)
-        self.pixel_cycles = sum(s.cycles for s in pixel_stages)
-        #: clock cycles per frame, cameras never starving the pipeline
-        self.frame_cycles = width * height + self.flush
-        #: clock cycles from a frame's last pixel leaving the synchroniser to its record
-        self.record_cycles = (self.flush + self.pixel_cycles
-                              + self._centroid.cycles_after_frame
-                              + self._average.cycles + self._spotting.cycles + 1)
+        #: the pixel stages in order (:class:`hdl.stage.PixelStage`)
+        self.pixel_stages: list[PixelStage] = [self._to444[0], med, mat, self._segment,
+                                               self._opening]
+        #: :func:`pipeline_timing` of this pipeline (flush, pixel_cycles,
+        #: frame_cycles, record_cycles are also attributes)
+        self.timing = pipeline_timing(width, height, params)
+        self.flush, self.pixel_cycles, self.frame_cycles, self.record_cycles = self.timing
         self._sync = StereoSynchronizer(width, height, fifo_depth=fifo_depth,
                                         threshold=min(sync_threshold, width * height),
                                         flush=self.flush)
@@ -157,8 +191,7 @@ class GesturePipeline(wiring.Component):
             "o_stream": Out(stream.Signature(record_layout(width, height, p.frac_bits),
                                              always_ready=True)),
             "video_select": In(3),
-            "o_video": Out(stream.Signature(data.StructLayout({"first": 1, "pixel": 8}),
-                                            always_ready=True)),
+            "o_video": Out(pixel_signature(8)),
             "frames": Out(16), "faults": Out(16),
             "threshold": In(bits_for(p.max_disparity), init=p.lrcc_threshold),
         })
@@ -199,38 +232,20 @@ class GesturePipeline(wiring.Component):
             m.submodules[f"to444_{side}"] = to444[k]
             m.submodules[f"median_{side}"] = median[k]
             word = getattr(frame.payload, side)
-            m.d.comb += [
-                to444[k].i_stream.valid.eq(frame.valid),
-                to444[k].i_stream.payload.first.eq(frame.payload.first),
-                to444[k].i_stream.payload.luma.eq(word.luma),
-                to444[k].i_stream.payload.chroma.eq(word.chroma),
-                median[k].i_stream.valid.eq(to444[k].o_stream.valid),
-                median[k].i_stream.payload.first.eq(to444[k].o_stream.payload.first),
-                median[k].i_stream.payload.pixel.eq(to444[k].o_stream.payload.y),
-            ]
+            connect_remapped(m, frame, to444[k].i_stream, luma=word.luma, chroma=word.chroma)
+            connect_remapped(m, to444[k].o_stream, median[k].i_stream,
+                             pixel=to444[k].o_stream.payload.y)
         m.submodules.matcher = mat = self._matcher
-        m.d.comb += [
-            mat.threshold.eq(self.threshold),
-            mat.i_stream.valid.eq(median[0].o_stream.valid),
-            mat.i_stream.payload.first.eq(median[0].o_stream.payload.first),
-            mat.i_stream.payload.left.eq(median[0].o_stream.payload.pixel),
-            mat.i_stream.payload.right.eq(median[1].o_stream.payload.pixel),
-        ]
+        m.d.comb += mat.threshold.eq(self.threshold)
+        connect_remapped(m, median[0].o_stream, mat.i_stream,
+                         left=median[0].o_stream.payload.pixel,
+                         right=median[1].o_stream.payload.pixel)
         m.submodules.segmentation = seg = self._segment
         chroma = to444[0].o_stream
-        m.d.comb += [
-            seg.i_chroma.valid.eq(chroma.valid),
-            seg.i_chroma.payload.first.eq(chroma.payload.first),
-            seg.i_chroma.payload.cb.eq(chroma.payload.cb),
-            seg.i_chroma.payload.cr.eq(chroma.payload.cr),
-        ]
+        connect_remapped(m, chroma, seg.i_chroma)
         wiring.connect(m, mat.o_stream, seg.i_disparity)
         m.submodules.opening = opening = self._opening
-        m.d.comb += [
-            opening.i_stream.valid.eq(seg.o_stream.valid),
-            opening.i_stream.payload.first.eq(seg.o_stream.payload.first),
-            opening.i_stream.payload.pixel.eq(seg.o_stream.payload.hand),
-        ]
+        connect_remapped(m, seg.o_stream, opening.i_stream, pixel=seg.o_stream.payload.hand)
         m.submodules.centroid = cen = self._centroid
         wiring.connect(m, opening.o_stream, cen.i_stream)
 
@@ -238,15 +253,8 @@ class GesturePipeline(wiring.Component):
         m.submodules.moving_average = avg = self._average
         m.submodules.spotting = spot = self._spotting
         c = cen.o_stream.payload
-        m.d.comb += [
-            avg.i_stream.valid.eq(cen.o_stream.valid),
-            avg.i_stream.payload.x.eq(c.x), avg.i_stream.payload.y.eq(c.y),
-            avg.i_stream.payload.valid.eq(c.area != 0),
-            spot.i_stream.valid.eq(avg.o_stream.valid),
-            spot.i_stream.payload.x.eq(avg.o_stream.payload.x),
-            spot.i_stream.payload.y.eq(avg.o_stream.payload.y),
-            spot.i_stream.payload.primed.eq(avg.o_stream.payload.primed),
-        ]
+        connect_remapped(m, cen.o_stream, avg.i_stream, valid=c.area != 0)   # a hand was seen
+        connect_remapped(m, avg.o_stream, spot.i_stream)
         # The raw centroid waits for the averaging and spotting stages.
         raw = Signal.like(c)
         with m.If(cen.o_stream.valid):

@@ -22,7 +22,7 @@ from amaranth.lib.wiring import In, Out
 
 from ._util import bits_for, check_int
 
-__all__ = ["HammingDistances"]
+__all__ = ["HammingDistances", "hamming_cycles"]
 
 
 def _adder_levels(bits: int) -> int:
@@ -57,6 +57,12 @@ def _ripple_add(x: list, y: list) -> list:
     return out
 
 
+def hamming_cycles(bits: int, adder_levels_per_stage: int = 2) -> int:
+    """Clock cycles of a distance of ``bits``-bit codes: the XOR and 3-bit counts,
+    then a register after every ``adder_levels_per_stage`` adder levels."""
+    return 1 + -(-_adder_levels(bits) // adder_levels_per_stage)
+
+
 class HammingDistances(wiring.Component):
     """``distance[k] = popcount(a ^ code_k)`` for ``codes`` codes, ``cycles``
     clock cycles later.
@@ -83,9 +89,8 @@ class HammingDistances(wiring.Component):
         self.bits = check_int("bits", bits, 1, 64)
         self.codes = check_int("codes", codes, 1, 256)
         self.per_stage = check_int("adder_levels_per_stage", adder_levels_per_stage, 1, 4)
-        levels = _adder_levels(self.bits)
         #: clock cycles from a, b to distance
-        self.cycles = 1 + -(-levels // self.per_stage)
+        self.cycles = hamming_cycles(self.bits, self.per_stage)
         super().__init__({
             "a": In(bits),
             "b": In(data.ArrayLayout(codes, bits)),

@@ -18,8 +18,14 @@ from sim.model.matching import MAX_DISPARITY_RANGE
 
 from ._util import bits_for, check_geometry, check_int, delay
 from .raster_position import RasterPosition
+from .stage import StageTiming
 
-__all__ = ["LeftRightCheck"]
+__all__ = ["LeftRightCheck", "lrcc_timing"]
+
+
+def lrcc_timing(max_disparity: int) -> StageTiming:
+    """Look-ahead D - 1 (the R2L disparities of the pixels to the right) and 3 cycles."""
+    return StageTiming(lag=max_disparity - 1, cycles=LeftRightCheck.cycles)
 
 
 class LeftRightCheck(wiring.Component):
@@ -45,7 +51,7 @@ class LeftRightCheck(wiring.Component):
         self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
         self.width, self.height = check_geometry(width, height, min_width=max_disparity)
         self.disparity_bits = bits_for(self.max_disparity - 1)
-        self.lag = self.max_disparity - 1
+        self.lag = lrcc_timing(self.max_disparity).lag
         db = self.disparity_bits
         super().__init__({
             "threshold": In(bits_for(self.max_disparity)),

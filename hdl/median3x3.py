@@ -11,15 +11,24 @@ leaves the frame passes through unchanged.
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal
-from amaranth.lib import data, stream, wiring
+from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, delay
-from .window import WindowGenerator
+from .stage import StageTiming
+from .streams import pixel_signature
+from .window import WindowGenerator, window_timing
 
-__all__ = ["Median3x3"]
+__all__ = ["Median3x3", "median_timing"]
 
 TAPS = 9
+
+
+def median_timing(width: int) -> StageTiming:
+    """The 3x3 window's look-ahead; its cycles, the network's 9 layers and the
+    output register."""
+    window = window_timing(width, 3)
+    return StageTiming(lag=window.lag, cycles=window.cycles + TAPS + 1)
 
 
 class Median3x3(wiring.Component):
@@ -42,14 +51,11 @@ class Median3x3(wiring.Component):
         self.width, self.height = check_geometry(width, height)
         self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
         self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=3)
-        self.lag = self._window.lag
-        self.cycles = self._window.cycles + TAPS + 1
+        self.lag, self.cycles = median_timing(self.width)
         self.memory_bits = self._window.memory_bits
         super().__init__({
-            "i_stream": In(stream.Signature(data.StructLayout(
-                {"first": 1, "pixel": pixel_bits}), always_ready=True)),
-            "o_stream": Out(stream.Signature(data.StructLayout(
-                {"first": 1, "real": 1, "pixel": pixel_bits}), always_ready=True)),
+            "i_stream": In(pixel_signature(pixel_bits)),
+            "o_stream": Out(pixel_signature(pixel_bits, real=True)),
         })
 
     def elaborate(self, platform):

@@ -14,17 +14,37 @@ from __future__ import annotations
 
 import numpy as np
 from amaranth.hdl import Cat, Module, Signal
-from amaranth.lib import data, stream, wiring
+from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from sim.model.morphology import resolve_element
 
 from ._util import check_geometry, delay
-from .window import WindowGenerator
+from .stage import StageTiming
+from .streams import pixel_signature
+from .window import WindowGenerator, window_timing
 
-__all__ = ["BinaryMorphology", "FANIN"]
+__all__ = ["BinaryMorphology", "FANIN", "morphology_timing"]
 
 FANIN = 6
+
+
+def _tree_levels(taps: int) -> int:
+    """Levels of the AND/OR tree over ``taps`` inputs, :data:`FANIN` per gate."""
+    levels = 0
+    while taps > 1:
+        taps = -(-taps // FANIN)
+        levels += 1
+    return levels
+
+
+def morphology_timing(width: int, element) -> StageTiming:
+    """The window's look-ahead; its cycles, the tap register, the tree and the
+    output register (``element`` as :func:`sim.model.morphology.resolve_element`
+    gives it)."""
+    window = window_timing(width, len(element))
+    return StageTiming(lag=window.lag,
+                       cycles=window.cycles + 1 + _tree_levels(int(element.sum())) + 1)
 
 
 class BinaryMorphology(wiring.Component):
@@ -65,21 +85,14 @@ class BinaryMorphology(wiring.Component):
         self.size = self.element.shape[0]
         self.width, self.height = check_geometry(width, height, min_width=self.size + 2)
         self.taps = int(self.element.sum())
-        levels, n = 0, self.taps
-        while n > 1:
-            n = -(-n // FANIN)
-            levels += 1
-        self.tree_levels = levels
+        self.tree_levels = _tree_levels(self.taps)
         self._window = WindowGenerator(self.width, self.height, pixel_bits=1, window=self.size)
-        self.lag = self._window.lag
-        self.cycles = self._window.cycles + 1 + levels + 1
+        self.lag, self.cycles = morphology_timing(self.width, self.element)
         self.memory_bits = self._window.memory_bits
         super().__init__({
             "dilate": In(1),
-            "i_stream": In(stream.Signature(data.StructLayout(
-                {"first": 1, "pixel": 1}), always_ready=True)),
-            "o_stream": Out(stream.Signature(data.StructLayout(
-                {"first": 1, "real": 1, "pixel": 1}), always_ready=True)),
+            "i_stream": In(pixel_signature(1)),
+            "o_stream": Out(pixel_signature(1, real=True)),
         })
 
     def elaborate(self, platform):

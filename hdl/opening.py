@@ -12,9 +12,16 @@ from __future__ import annotations
 from amaranth.hdl import Module
 from amaranth.lib import wiring
 
-from .morphology import BinaryMorphology
+from .morphology import BinaryMorphology, morphology_timing
+from .stage import StageTiming
 
-__all__ = ["Opening"]
+__all__ = ["Opening", "opening_timing"]
+
+
+def opening_timing(width: int, element) -> StageTiming:
+    """An erosion then a dilation with the same element."""
+    one = morphology_timing(width, element)
+    return StageTiming(lag=2 * one.lag, cycles=2 * one.cycles)
 
 
 class Opening(wiring.Component):
@@ -45,8 +52,7 @@ class Opening(wiring.Component):
         self.width, self.height = self._erosion.width, self._erosion.height
         self.element = self._erosion.element
         self.size = self._erosion.size
-        self.lag = self._erosion.lag + self._dilation.lag
-        self.cycles = self._erosion.cycles + self._dilation.cycles
+        self.lag, self.cycles = opening_timing(self.width, self.element)
         self.memory_bits = self._erosion.memory_bits + self._dilation.memory_bits
         # the mask streams of the two stages it chains
         stage = self._erosion.signature.members

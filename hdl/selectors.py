@@ -24,8 +24,14 @@ from sim.model.matching import MAX_DISPARITY_RANGE
 
 from ._util import bits_for, check_geometry, check_int, delay
 from .raster_position import RasterPosition
+from .stage import StageTiming
 
-__all__ = ["DisparitySelectors"]
+__all__ = ["DisparitySelectors", "selectors_timing"]
+
+
+def selectors_timing(max_disparity: int) -> StageTiming:
+    """No look-ahead; one cycle per level of the best-of tree over D (at least 1)."""
+    return StageTiming(lag=0, cycles=max(1, (max_disparity - 1).bit_length()))
 
 
 class DisparitySelectors(wiring.Component):
@@ -52,8 +58,7 @@ class DisparitySelectors(wiring.Component):
         self.cost_bits = check_int("cost_bits", cost_bits, 1, 32)
         self.disparity_bits = bits_for(self.max_disparity - 1)
         self.levels = (self.max_disparity - 1).bit_length()
-        self.cycles = max(1, self.levels)
-        self.lag = 0
+        self.lag, self.cycles = selectors_timing(self.max_disparity)
         db = self.disparity_bits
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({

@@ -21,12 +21,21 @@ from amaranth.lib.wiring import In, Out
 from sim.model.matching import MAX_DISPARITY_RANGE
 
 from ._util import check_geometry, check_int, check_odd_window, delay
-from .column_sum import ColumnSum
-from .hamming import HammingDistances
+from .column_sum import ColumnSum, column_sum_timing
+from .hamming import HammingDistances, hamming_cycles
 from .raster_position import RasterPosition
-from .window_sum import WindowSum
+from .stage import StageTiming
+from .window_sum import WindowSum, window_sum_timing
 
-__all__ = ["SumOfHammingDistances"]
+__all__ = ["SumOfHammingDistances", "shd_timing"]
+
+
+def shd_timing(width: int, census_bits: int, hamming_window: int) -> StageTiming:
+    """The Hamming banks, then the column sums, then the window sums."""
+    columns = column_sum_timing(width, hamming_window)
+    windows = window_sum_timing(hamming_window)
+    return StageTiming(lag=columns.lag + windows.lag,
+                       cycles=hamming_cycles(census_bits) + columns.cycles + windows.cycles)
 
 
 class SumOfHammingDistances(wiring.Component):
@@ -67,8 +76,7 @@ class SumOfHammingDistances(wiring.Component):
                                   max_term=wh * census_bits)
         # one bank of D distances for the entering rows (V1), one for the leaving (V2)
         self._ham = [HammingDistances(census_bits, codes=nd) for _ in range(2)]
-        self.lag = self._columns.lag + self._windows.lag
-        self.cycles = self._ham[0].cycles + self._columns.cycles + self._windows.cycles
+        self.lag, self.cycles = shd_timing(w, census_bits, wh)
         self.cost_bits = self._windows.sum_bits
         self.memory_bits = {"column sums": self._columns.memory_bits,
                             "window-sum ring buffer": self._windows.memory_bits}

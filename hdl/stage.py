@@ -3,9 +3,17 @@
 (:class:`hdl.gesture_pipeline.GesturePipeline`) and the benchmarks print them."""
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
-__all__ = ["PixelStage"]
+__all__ = ["PixelStage", "StageTiming"]
+
+
+class StageTiming(NamedTuple):
+    """``lag`` and ``cycles`` of a stage (see :class:`PixelStage`), computed from its
+    parameters alone by the ``*_timing`` function beside each component, which
+    the component itself uses: the figures without building hardware."""
+    lag: int
+    cycles: int
 
 
 @runtime_checkable

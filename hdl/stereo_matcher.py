@@ -31,13 +31,28 @@ from sim.model.matching import HAMMING_WINDOW_RANGE, MAX_DISPARITY_RANGE
 
 from ._util import (HEIGHT_RANGE, PIXEL_BITS_RANGE, WIDTH_RANGE, bits_for, check_int,
                     check_odd_window, replicate)
-from .census import SparseCensus
-from .lrcc import LeftRightCheck
-from .median3x3 import Median3x3
-from .selectors import DisparitySelectors
-from .shd import SumOfHammingDistances
+from .census import SparseCensus, census_timing
+from .lrcc import LeftRightCheck, lrcc_timing
+from .median3x3 import Median3x3, median_timing
+from .selectors import DisparitySelectors, selectors_timing
+from .shd import SumOfHammingDistances, shd_timing
+from .stage import StageTiming
+from .streams import connect_remapped
 
-__all__ = ["StereoMatcher"]
+__all__ = ["StereoMatcher", "matcher_timing"]
+
+
+def matcher_timing(width: int, census_window: int, hamming_window: int, max_disparity: int,
+                   *, disparity_median: bool = True) -> StageTiming:
+    """The census, SHD, selectors, consistency check and disparity median in
+    series: their look-aheads add up to the flush beats a frame needs; their
+    cycles, plus the input and output registers, to the pipeline depth."""
+    stages = [census_timing(width, census_window),
+              shd_timing(width, census_bits(census_window), hamming_window),
+              selectors_timing(max_disparity), lrcc_timing(max_disparity)]
+    if disparity_median:
+        stages.append(median_timing(width))
+    return StageTiming(lag=sum(s.lag for s in stages), cycles=2 + sum(s.cycles for s in stages))
 
 
 class StereoMatcher(wiring.Component):
@@ -102,15 +117,11 @@ class StereoMatcher(wiring.Component):
         self._check = LeftRightCheck(w, h, max_disparity=nd)
         self._median = (Median3x3(w, h, pixel_bits=self._check.disparity_bits)
                         if disparity_median else None)
-        stages = [self._census[0], self._shd, self._select, self._check]
-        if self._median is not None:
-            stages.append(self._median)
+        timing = matcher_timing(w, wc, wh, nd, disparity_median=self.disparity_median)
         #: flush beats per frame: the total look-ahead of the windows
-        self.flush = sum(s.lag for s in stages)
-        self.lag = self.flush
-        #: free-running pipeline depth in clock cycles (+2: the input and output
-        #: registers)
-        self.cycles = 2 + sum(s.cycles for s in stages)
+        self.flush = self.lag = timing.lag
+        #: free-running pipeline depth in clock cycles
+        self.cycles = timing.cycles
         #: clock cycles from a pixel in to its disparity out, input without gaps
         self.latency = self.flush + self.cycles
         #: clock cycles per frame, input without gaps (back-to-back frames)
@@ -198,36 +209,18 @@ class StereoMatcher(wiring.Component):
             m.d.comb += [c.i_stream.valid.eq(beat), c.i_stream.payload.first.eq(first),
                          c.i_stream.payload.pixel.eq(px)]
         m.submodules.shd = shd = self._shd
-        m.d.comb += [
-            shd.i_stream.valid.eq(cl.o_stream.valid),
-            shd.i_stream.payload.first.eq(cl.o_stream.payload.first),
-            shd.i_stream.payload.left.eq(cl.o_stream.payload.code),
-            shd.i_stream.payload.right.eq(cr.o_stream.payload.code),
-            shd.i_stream.payload.left2.eq(cl.o_stream.payload.code2),
-            shd.i_stream.payload.right2.eq(cr.o_stream.payload.code2),
-        ]
+        connect_remapped(m, cl.o_stream, shd.i_stream,
+                         left=cl.o_stream.payload.code, right=cr.o_stream.payload.code,
+                         left2=cl.o_stream.payload.code2, right2=cr.o_stream.payload.code2)
         m.submodules.select = sel = self._select
-        m.d.comb += [
-            sel.i_stream.valid.eq(shd.o_stream.valid),
-            sel.i_stream.payload.first.eq(shd.o_stream.payload.first),
-            sel.i_stream.payload.cost.eq(shd.o_stream.payload.cost),
-        ]
+        connect_remapped(m, shd.o_stream, sel.i_stream)
         m.submodules.check = chk = self._check
-        m.d.comb += [
-            chk.threshold.eq(self.threshold),
-            chk.i_stream.valid.eq(sel.o_stream.valid),
-            chk.i_stream.payload.first.eq(sel.o_stream.payload.first),
-            chk.i_stream.payload.l2r.eq(sel.o_stream.payload.l2r),
-            chk.i_stream.payload.r2l.eq(sel.o_stream.payload.r2l),
-        ]
+        m.d.comb += chk.threshold.eq(self.threshold)
+        connect_remapped(m, sel.o_stream, chk.i_stream)
         last, value = chk.o_stream, chk.o_stream.payload.disparity
         if self._median is not None:
             m.submodules.median = med = self._median
-            m.d.comb += [
-                med.i_stream.valid.eq(chk.o_stream.valid),
-                med.i_stream.payload.first.eq(chk.o_stream.payload.first),
-                med.i_stream.payload.pixel.eq(chk.o_stream.payload.disparity),
-            ]
+            connect_remapped(m, chk.o_stream, med.i_stream, pixel=chk.o_stream.payload.disparity)
             last, value = med.o_stream, med.o_stream.payload.pixel
         # An output register: the stage behind (segmentation) sits far from the
         # matcher's last stage on the die (routed: 10 ns of wire on that path).

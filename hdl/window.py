@@ -22,8 +22,16 @@ from amaranth.lib.wiring import In, Out
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window, delay
 from .raster_position import RasterPosition
 from .row_buffer import RowBuffer
+from .stage import StageTiming
 
-__all__ = ["WindowGenerator"]
+__all__ = ["WindowGenerator", "window_timing"]
+
+
+def window_timing(width: int, window: int) -> StageTiming:
+    """A ``window`` x ``window`` generator's look-ahead (its radius in rows and
+    columns) and cycles (the row buffer's read, one register)."""
+    radius = window // 2
+    return StageTiming(lag=radius * width + radius, cycles=RowBuffer.cycles + 1)
 
 
 class WindowGenerator(wiring.Component):
@@ -55,8 +63,7 @@ class WindowGenerator(wiring.Component):
         self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
         self.separation = check_int("separation", separation, 0, 255 - window)
         self.radius = window // 2
-        self.lag = self.radius * self.width + self.radius
-        self.cycles = RowBuffer.cycles + 1
+        self.lag, self.cycles = window_timing(self.width, window)
         self.buffer_rows = window - 1 + separation
         self.used_rows = sorted(set(range(window)) | set(range(separation,
                                                                 separation + window)))

@@ -17,12 +17,18 @@ from amaranth.lib.wiring import In, Out
 
 from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
 from .raster_position import RasterPosition
+from .stage import StageTiming
 
 #: Disparities whose delay lines and accumulators share one copy of the beat
 #: and of the row flags.
 FLAG_GROUP = 2
 
-__all__ = ["WindowSum"]
+__all__ = ["WindowSum", "window_sum_timing"]
+
+
+def window_sum_timing(hamming_window: int) -> StageTiming:
+    """Look-ahead r = Wh // 2 columns and 3 cycles."""
+    return StageTiming(lag=hamming_window // 2, cycles=WindowSum.cycles)
 
 
 class WindowSum(wiring.Component):
@@ -65,7 +71,7 @@ class WindowSum(wiring.Component):
         self.term_bits = bits_for(self.max_term)
         self.sum_bits = bits_for(self.hamming_window * self.max_term)
         self.radius = self.hamming_window // 2
-        self.lag = self.radius
+        self.lag = window_sum_timing(self.hamming_window).lag
         #: words of the ring buffer of leaving column sums (0: a register, Wh = 1)
         self.ring_depth = 1 << (self.hamming_window - 1).bit_length() \
             if self.hamming_window >= 3 else 0

@@ -126,3 +126,29 @@ def test_pixel_stages_declare_the_stage_protocol():
     assert all(isinstance(s, PixelStage) for s in stages)
     assert pipeline.flush == sum(s.lag for s in stages) > 0
     assert not isinstance(object(), PixelStage)
+
+
+@pytest.mark.parametrize("width, height, params", [
+    (32, 16, SMALL), (640, 480, PipelineParams()),
+    (96, 64, PipelineParams(census_window=5, hamming_window=9, max_disparity=16,
+                            lrcc_threshold=4, band_low=4, opening_shape="square",
+                            opening_size=5)),
+])
+def test_pipeline_timing_without_building(width, height, params):
+    """hdl.gesture_pipeline.pipeline_timing from the parameters alone equals the
+    sums over the built pipeline's stages (what the simulations feed and drain)."""
+    from hdl.gesture_pipeline import pipeline_timing
+    timing = pipeline_timing(width, height, params)
+    built = GesturePipeline(width, height, params)
+    stages = built.pixel_stages
+    flush = sum(s.lag for s in stages)
+    assert timing.flush == flush == built.flush
+    assert timing.pixel_cycles == sum(s.cycles for s in stages)
+    assert timing.frame_cycles == width * height + flush
+    assert timing.record_cycles == (flush + timing.pixel_cycles
+                                    + built._centroid.cycles_after_frame
+                                    + built._average.cycles + built._spotting.cycles + 1)
+    if (width, height) == (640, 480):
+        assert timing.frame_cycles == 325_837       # the README's figure (eq. 40: 325,293)
+    with pytest.raises(ValueError, match="width"):
+        pipeline_timing(33, height, params)

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """End to end, cameras to robot command: a stereo clip through the Verilated
 FPGA side (:mod:`verif.system`) and the unmodified board application, checked
 against the golden model on the way (the main job, ``stereogest demo``).
@@ -140,7 +139,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     exe : path, optional
         A prebuilt harness (:func:`verif.system.build_system`).
     """
-    from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
+    from hdl._util import bits_for
+    from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
     from sim.model.vga import vga_frame
     from sw_hps.app import GestureApp, State
     from sw_hps.fifo import CTRL_FIFO_DATA, CTRL_NO_GESTURE, FifoPeripheral
@@ -153,8 +153,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
     frames = len(left_frames)
     height, width = np.shape(left_frames)[1], np.shape(left_frames)[2] // 2
-    pipeline = GesturePipeline(width, height, params)  # for its timing figures only
-    drain = pipeline.record_cycles + 8 * width
+    timing = pipeline_timing(width, height, params)
+    drain = timing.record_cycles + 8 * width
     expected = [(int(x), int(y)) for (x, y), f in zip(trajectory.smoothed, trajectory.flag) if f]
     start = time.perf_counter()
     with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
@@ -172,7 +172,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         started = time.perf_counter()     # after the build: the rate is the simulation's
 
         def finished() -> bool:
-            frame = system.cycles // pipeline.frame_cycles
+            frame = system.cycles // timing.frame_cycles
             if progress is not None and frame >= shown[0] + 5 and not system.cameras_done:
                 shown[0] = frame
                 progress(hardware_progress(min(frame, frames), frames, system.cycles,
@@ -195,7 +195,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     vga_expected = None
     if last_stages is not None:
         mode = VGA_640x480_60
-        picture = video_picture(last_stages, stage, pipeline.disparity_bits)
+        picture = video_picture(last_stages, stage, bits_for(params.max_disparity - 1))
         raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS)
         active = raster[..., 5].astype(bool)
         vga_expected = raster[..., 0][active].reshape(mode.v_active, mode.h_active)

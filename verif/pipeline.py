@@ -122,12 +122,11 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
     Verilated pipeline; returns its per-frame records and the harness statistics.
     ``drain``: pipeline cycles run after the cameras' last sample (default: enough
     for the last frame's flush, record and the FIFOs)."""
-    from hdl.gesture_pipeline import GesturePipeline
+    from hdl.gesture_pipeline import pipeline_timing
     from sim.camera import pack_pins
     exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS, emission)
     if drain is None:
-        drain = (GesturePipeline(width, height, params, fifo_depth=fifo_depth).record_cycles
-                 + 2 * fifo_depth + 4 * width)
+        drain = pipeline_timing(width, height, params).record_cycles + 2 * fifo_depth + 4 * width
     dtype = np.dtype([(name, "<i8") for name in RECORD_FIELDS])
     with tempfile.TemporaryDirectory() as tmp:
         paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin")]
@@ -155,13 +154,13 @@ def run_clip_hardware(left_frames, right_frames, params: PipelineParams = Pipeli
     :class:`sim.model.pipeline.Trajectory` (``symbol`` from the records' smoothed
     points and flags, as :func:`~sim.model.pipeline.step_symbols` does), plus the
     harness statistics. Raises RuntimeError if a frame's record is missing."""
-    from hdl.gesture_pipeline import GesturePipeline
+    from hdl.gesture_pipeline import pipeline_timing
     from sim.model.pipeline import Trajectory, step_symbols
 
     frames = len(left_frames)
     height, width = np.shape(left_frames[0])[0], np.shape(left_frames[0])[1] // 2
     params.validate(width, height)
-    flush = GesturePipeline(width, height, params, fifo_depth=fifo_depth).flush
+    flush = pipeline_timing(width, height, params).flush
     timing = clip_timing(width, height, flush, clocks)
     left_wave, right_wave = camera_waveforms(left_frames, right_frames, timing)
     run = run_pipeline(left_wave, right_wave, width, height, params, clocks=clocks,

@@ -115,7 +115,7 @@ class VerilatorSystem:
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
                  *, clocks: Clocks = Clocks(), stage: int = 5, log=None,
                  exe: Path | None = None):
-        from hdl.gesture_pipeline import GesturePipeline
+        from hdl.gesture_pipeline import pipeline_timing
         from sim.camera import pack_pins
         from soc.vga_timing import VGA_640x480_60
         left_frames, right_frames = np.asarray(left_frames), np.asarray(right_frames)
@@ -129,7 +129,7 @@ class VerilatorSystem:
         self.clocks = clocks
         self.exe = Path(exe) if exe is not None else \
             build_system(self.width, self.height, params, clocks, log=log)
-        flush = GesturePipeline(self.width, self.height, params).flush
+        flush = pipeline_timing(self.width, self.height, params).flush
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")
         tmp = Path(self._tmp.name)
