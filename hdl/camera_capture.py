@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """OV5642 camera capture (thesis §5.2, Fig. 25, Table 9).
 
 Turns the camera's pins (VSYNC, HREF, 8 data bits, one byte per PCLK cycle) into a

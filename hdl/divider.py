@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Sequential restoring divider, one quotient bit per clock (the divider of the
 centroid unit, thesis §7.1, Fig. 72).
 

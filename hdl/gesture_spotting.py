@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Gesture spotting: flag the frames that belong to a gesture (thesis §7.3, Figs. 78-79).
 
 Motion is the larger coordinate change over the last ``window`` primed frames

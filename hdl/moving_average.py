@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Moving average of the centroid trajectory in fixed point (thesis §7.2, eq. 27, Fig. 75).
 
 A shift register keeps the last ``window`` valid centroids; a running sum

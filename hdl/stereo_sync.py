@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Stereo frame synchroniser (thesis §5.3, Table 10).
 
 The two cameras run on their own pixel clocks and start their frames at different

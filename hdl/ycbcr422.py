@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """YCbCr 4:2:2 -> 4:4:4 conversion of the camera stream (thesis §5.4, Table 11).
 
 The camera sends a row as bytes ``Y0 Cb0 Y1 Cr0 Y2 Cb1 Y3 Cr1 ...``; the stream

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Centroid FIFO peripheral: an Avalon-MM slave on the lightweight HPS-to-FPGA
 bridge (thesis §7.4.1, Tables 12 and 13).
 

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """OV5642 camera configuration over I2C (thesis §5.1).
 
 Each camera gets one :class:`Ov5642Config`: an I2C (SCCB) master that writes the

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """8N1 UART as an Avalon-MM slave on the lightweight HPS-to-FPGA bridge, for the
 RN-42 Bluetooth module that links the board to the LEGO NXT robot at 115200
 baud (thesis §8.5.1).

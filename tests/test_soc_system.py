@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The whole FPGA side (soc.core.StereogestCore) as one design: its ports, and
 end to end under Verilator with the unmodified board application on its
 registers (small frames; the demo runs the full size)."""
@@ -21,7 +22,8 @@ W, H = 32, 16
 
 def test_core_ports_are_the_documented_ones():
     from soc.platform_designer import verilog_ports
-    text = emit_core_verilog(StereogestCore(W, H, SMALL))
+    core = StereogestCore(W, H, SMALL)
+    text = emit_core_verilog(core)
     ports = {name: (direction, width) for name, direction, width in verilog_ports(text, CORE_NAME)}
     expected = {"clk": ("input", 1), "rst": ("input", 1),
                 "fifo__address": ("input", 3), "fifo__readdata": ("output", 32),
@@ -39,8 +41,7 @@ def test_core_ports_are_the_documented_ones():
         assert ports.get(name) == port, name
     # the list Platform Designer and the simulation wrapper are built from, taken
     # from the signature, is the emitted Verilog's
-    assert sorted(core_ports(StereogestCore(W, H, SMALL))) == sorted(
-        verilog_ports(text, CORE_NAME))
+    assert sorted(core_ports(core)) == sorted(verilog_ports(text, CORE_NAME))
 
 
 @pytest.mark.parametrize("kwargs, word", [

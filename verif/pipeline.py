@@ -96,7 +96,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     """Build (or reuse) the Verilated pipeline harness; returns the executable.
     ``threads`` > 1 builds a multithreaded model (Verilator ``--threads``);
     ``emission``: how its Verilog is written (:data:`verif.verilator.EMISSIONS`)."""
-    top = _make_top(width, height, params, fifo_depth)
+    params.validate(width, height)
     spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
                 cflags=cflags, emission=emission, **params.as_dict())
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
@@ -106,6 +106,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     if exe.exists():
         return exe
     from hdl.synthesis import component_ports
+    top = _make_top(width, height, params, fifo_depth)      # built only when not cached
     core = TOP + "_core"
     text = simulation_verilog(top, core, component_ports(top), emission)
     return verilate(folder, f"{TOP}.v", text + _wrapper(top, core), spec, TOP,

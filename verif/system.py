@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The whole FPGA side (:class:`soc.core.StereogestCore`) under Verilator, with
 the board application on its registers: the end-to-end demo's engine.
 
