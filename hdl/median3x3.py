@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """3x3 median filter (thesis §6.1, Figs. 36-37), generic in the pixel width so the
 camera pipeline (8-bit luma) and the stereo matcher (disparities) share it.
 
