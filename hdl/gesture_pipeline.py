@@ -169,10 +169,9 @@ class GesturePipeline(wiring.Component):
         #: the pixel stages in order (:class:`hdl.stage.PixelStage`)
         self.pixel_stages: list[PixelStage] = [self._to444[0], med, mat, self._segment,
                                                self._opening]
-        #: :func:`pipeline_timing` of this pipeline (flush, pixel_cycles,
-        #: frame_cycles, record_cycles are also attributes)
-        self.timing = pipeline_timing(width, height, params)
-        self.flush, self.pixel_cycles, self.frame_cycles, self.record_cycles = self.timing
+        #: :func:`pipeline_timing` of this pipeline, field by field
+        self.flush, self.pixel_cycles, self.frame_cycles, self.record_cycles = \
+            pipeline_timing(width, height, params)
         self._sync = StereoSynchronizer(width, height, fifo_depth=fifo_depth,
                                         threshold=min(sync_threshold, width * height),
                                         flush=self.flush)

@@ -20,7 +20,12 @@ from ._util import bits_for, check_geometry, check_int, delay
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
-__all__ = ["LeftRightCheck", "lrcc_timing"]
+__all__ = ["LeftRightCheck", "lrcc_timing", "disparity_bits"]
+
+
+def disparity_bits(max_disparity: int) -> int:
+    """Bits of a disparity 0 .. D - 1 (0 also means rejected) as the matcher emits it."""
+    return bits_for(max_disparity - 1)
 
 
 def lrcc_timing(max_disparity: int) -> StageTiming:
@@ -50,7 +55,7 @@ class LeftRightCheck(wiring.Component):
     def __init__(self, width: int, height: int, max_disparity: int):
         self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
         self.width, self.height = check_geometry(width, height, min_width=max_disparity)
-        self.disparity_bits = bits_for(self.max_disparity - 1)
+        self.disparity_bits = disparity_bits(self.max_disparity)
         self.lag = lrcc_timing(self.max_disparity).lag
         db = self.disparity_bits
         super().__init__({

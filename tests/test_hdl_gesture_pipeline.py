@@ -148,6 +148,13 @@ def test_pipeline_timing_without_building(width, height, params):
     assert timing.record_cycles == (flush + timing.pixel_cycles
                                     + built._centroid.cycles_after_frame
                                     + built._average.cycles + built._spotting.cycles + 1)
+    # independently, from the stream convention: a window of radius r looks
+    # r * width + r beats ahead (4:2:2 one beat; the census and Hamming windows,
+    # D - 1 for the consistency check, the disparity and camera medians, the
+    # erosion and the dilation)
+    rc, rh, ro = params.census_window // 2, params.hamming_window // 2, params.opening_size // 2
+    assert flush == (1 + 2 * (width + 1) + (rc + rh) * (width + 1) + params.max_disparity - 1
+                     + 2 * (ro * width + ro))
     if (width, height) == (640, 480):
         assert timing.frame_cycles == 325_837       # the README's figure (eq. 40: 325,293)
     with pytest.raises(ValueError, match="width"):

@@ -139,8 +139,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     exe : path, optional
         A prebuilt harness (:func:`verif.system.build_system`).
     """
-    from hdl._util import bits_for
     from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
+    from hdl.lrcc import disparity_bits
     from sim.model.vga import vga_frame
     from sw_hps.app import GestureApp, State
     from sw_hps.fifo import CTRL_FIFO_DATA, CTRL_NO_GESTURE, FifoPeripheral
@@ -195,7 +195,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     vga_expected = None
     if last_stages is not None:
         mode = VGA_640x480_60
-        picture = video_picture(last_stages, stage, bits_for(params.max_disparity - 1))
+        picture = video_picture(last_stages, stage, disparity_bits(params.max_disparity))
         raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS)
         active = raster[..., 5].astype(bool)
         vga_expected = raster[..., 0][active].reshape(mode.v_active, mode.h_active)

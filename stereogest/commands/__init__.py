@@ -9,6 +9,18 @@ Each module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and
 DEFAULT_SEED = 1
 
 
+def add_camera_options(parser, *, required: bool) -> None:
+    """``--left`` and ``--right``, the two cameras' footage (read by
+    :class:`sim.footage.StereoSource`), worded once for ``clip`` and ``live``."""
+    import argparse
+    default = argparse.SUPPRESS if required else None
+    parser.add_argument("--left", required=required, metavar="SOURCE", default=default,
+                        help="left camera: a camera index (0, 1, ...), a video file, a "
+                             "folder of images or a glob pattern (quote it)")
+    parser.add_argument("--right", required=required, metavar="SOURCE", default=default,
+                        help="right camera, as --left")
+
+
 def add_json_switch(parser, always: bool = False) -> None:
     """``--json``, the same switch on every command that prints a result: the
     result as one JSON document on the last line of stdout. ``always``: the

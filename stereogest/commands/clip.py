@@ -12,18 +12,14 @@ import sys
 
 from sim.gesture_shapes import GESTURE_NAMES
 
-from stereogest.commands import add_json_switch
+from stereogest.commands import add_camera_options, add_json_switch
 
 NAME = "clip"
 HELP = "make a clip from two video files, image sequences or webcams"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--left", required=True, metavar="SOURCE", default=argparse.SUPPRESS,
-                   help="left camera: a video file, a folder of images, a glob pattern "
-                        "(quote it) or a camera index (0, 1, ...)")
-    p.add_argument("--right", required=True, metavar="SOURCE", default=argparse.SUPPRESS,
-                   help="right camera, as --left")
+    add_camera_options(p, required=True)
     p.add_argument("-o", "--output", required=True, metavar="CLIP", default=argparse.SUPPRESS,
                    help="clip directory to write (replaced if it is already a clip)")
     p.add_argument("--width", type=int, default=640, help="clip width in pixels (even, 96..4096)")

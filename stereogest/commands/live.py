@@ -10,17 +10,14 @@ from __future__ import annotations
 import sys
 import threading
 
-from stereogest.commands import add_json_switch
+from stereogest.commands import add_camera_options, add_json_switch
 
 NAME = "live"
 HELP = "live view: golden model and recogniser on webcams, videos or a clip, in a browser"
 
 
 def add_arguments(p):
-    p.add_argument("--left", metavar="SOURCE", default=None,
-                   help="left camera: a camera index (0, 1, ...), a video file, an image "
-                        "folder or a glob pattern")
-    p.add_argument("--right", metavar="SOURCE", default=None, help="right camera, as --left")
+    add_camera_options(p, required=False)
     p.add_argument("--clip", metavar="CLIP", default=None,
                    help="replay a clip instead ('stereogest render' or 'stereogest clip')")
     p.add_argument("--width", type=int, default=None,
