@@ -48,9 +48,16 @@ class LeftRightCheck(wiring.Component):
         :class:`~hdl.selectors.DisparitySelectors`
     o_stream : payload ``{first, real, disparity}``, ``lag`` = D - 1,
         ``cycles`` = 3.
+
+    Attributes
+    ----------
+    memory_bits : int
+        0: the D - 1 deep L2R and R2L histories are registers (the check reads
+        any of them in one cycle).
     """
 
     cycles = 3
+    memory_bits = 0
 
     def __init__(self, width: int, height: int, max_disparity: int):
         self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)

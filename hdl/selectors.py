@@ -50,7 +50,14 @@ class DisparitySelectors(wiring.Component):
         (at least 1), ``lag`` = 0: ``l2r`` is the L2R disparity of the beat's left
         pixel, ``r2l`` the R2L disparity of the right pixel D - 1 raster
         positions before it.
+
+    Attributes
+    ----------
+    memory_bits : int
+        0: the best-of tree and the R2L chain are registers.
     """
+
+    memory_bits = 0
 
     def __init__(self, width: int, height: int, max_disparity: int, cost_bits: int):
         self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)

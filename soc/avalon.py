@@ -8,6 +8,8 @@ from __future__ import annotations
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from sim.model.validation import check_int
+
 __all__ = ["AvalonSlaveSignature", "READ_LATENCY", "DATA_WIDTH"]
 
 #: Cycles from ``read`` to valid ``readdata`` (the ``_hw.tcl`` declares the same).
@@ -25,10 +27,7 @@ class AvalonSlaveSignature(wiring.Signature):
     """
 
     def __init__(self, address_width: int):
-        if isinstance(address_width, bool) or not isinstance(address_width, int) \
-                or not 1 <= address_width <= 16:
-            raise ValueError(f"address_width must be an int in [1, 16], got {address_width!r}")
-        self.address_width = address_width
+        self.address_width = check_int("address_width", address_width, 1, 16)
         super().__init__({
             "address": Out(address_width),
             "read": Out(1),

@@ -116,18 +116,6 @@ def test_parameters_are_validated_before_building():
     assert VIDEO_STAGES == ("right", "left", "disparity", "skin", "band", "opening")
 
 
-def test_pixel_stages_declare_the_stage_protocol():
-    """Each pixel stage states lag, cycles and memory_bits (hdl.stage.PixelStage);
-    the pipeline's flush is the sum of their look-aheads."""
-    from hdl.stage import PixelStage
-    pipeline = GesturePipeline(32, 16, SMALL)
-    stages = [pipeline._to444[0], pipeline._median[0], pipeline._matcher, pipeline._segment,
-              pipeline._opening]
-    assert all(isinstance(s, PixelStage) for s in stages)
-    assert pipeline.flush == sum(s.lag for s in stages) > 0
-    assert not isinstance(object(), PixelStage)
-
-
 @pytest.mark.parametrize("width, height, params", [
     (32, 16, SMALL), (640, 480, PipelineParams()),
     (96, 64, PipelineParams(census_window=5, hamming_window=9, max_disparity=16,

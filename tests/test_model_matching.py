@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 from sim.model.census import census_bits, sparse_census
-from sim.model.matching import (default_no_match_cost, disparity_maps, hamming_volume,
-                                lr_consistency, shd_volume, window_sum, winner_take_all)
+from sim.model.matching import (column_sum, default_no_match_cost, disparity_maps,
+                                hamming_volume, lr_consistency, row_sum, shd_volume,
+                                window_sum, winner_take_all)
 
 
 def loop_shd(cl, cr, wh, ndisp, no_match):
@@ -107,6 +108,19 @@ def test_window_sum_wide_values_use_a_wide_dtype():
     vals = np.full((70, 70), 60, np.uint8)
     out = window_sum(vals, 63)
     assert out.dtype == np.uint32 and out[35, 35] == 63 * 63 * 60 and out[0, 0] == 32 * 32 * 60
+
+
+@pytest.mark.parametrize("window", [1, 3, 7])
+def test_column_and_row_sums_against_loops(window):
+    vals = np.random.default_rng(window).integers(0, 40, (3, 9, 11))
+    r = window // 2
+    cols, rows = np.zeros_like(vals), np.zeros_like(vals)
+    for d, y, x in np.ndindex(vals.shape):
+        cols[d, y, x] = vals[d, max(0, y - r):y + r + 1, x].sum()
+        rows[d, y, x] = vals[d, y, max(0, x - r):x + r + 1].sum()
+    np.testing.assert_array_equal(column_sum(vals, window), cols)
+    np.testing.assert_array_equal(row_sum(vals, window), rows)
+    np.testing.assert_array_equal(window_sum(vals, window), row_sum(cols, window))
 
 
 def test_shifted_texture_is_found_exactly():

@@ -333,7 +333,7 @@ def quartus_names(path, reg, bits):
     """The names Quartus may give a register of the core, with and without
     entity names in the hierarchy."""
     levels = ["soc", "stereogest_core_0", *path]
-    with_entity = [f"soc_system:soc", "stereogest_core:stereogest_core_0"] + [
+    with_entity = ["soc_system:soc", "stereogest_core:stereogest_core_0"] + [
         f"stereogest_core.{'.'.join(path[:i + 1])}:{p}" for i, p in enumerate(path)]
     return [f"{'|'.join(h)}|{reg}[{b}]" for h in (levels, with_entity) for b in range(bits)]
 

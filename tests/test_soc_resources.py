@@ -46,19 +46,3 @@ def test_estimate_sets_the_figures_beside_table_23_and_the_device(monkeypatch):
     assert report["thesis_table_23"] == {"alms": 21_941, "registers": 45_819,
                                          "memory_bits": 2_341_913}
     assert report["device"]["name"] == "5CSEMA5F31C6"
-
-
-def test_synthesize_maps_an_initialised_frame_buffer_to_m10k():
-    """The real tool on a small frame buffer (one clock, as the estimate runs
-    it): the 2048 x 4 memory with its initialiser becomes M10K, not logic."""
-    from amaranth.hdl import DomainRenamer
-
-    from hdl.synthesis import find_yosys, synthesize
-    reports = []
-    for autoname in (True, False):            # the estimate skips autoname
-        fb = DomainRenamer({"vga": "sync"})(FrameBuffer(64, 32))
-        report = synthesize(fb, "frame_buffer", find_yosys(), autoname=autoname)
-        assert report["m10k"] == 1            # 8192 bits: one block (2048 x 5 mode)
-        assert 0 < report["ffs"] < 200 and 0 < report["luts"] < 400
-        reports.append({k: report[k] for k in ("luts", "ffs", "m10k", "mlab", "levels")})
-    assert reports[0] == reports[1]

@@ -1,14 +1,13 @@
 # amaranth: UnusedElaboratable=no
-"""The whole FPGA side (soc.core.StereogestCore) as one design: its ports, and
-end to end under Verilator with the unmodified board application on its
-registers (small frames; the demo runs the full size)."""
+"""verif/system.py: the whole FPGA side (soc.core.StereogestCore) end to end under
+Verilator with the unmodified board application on its registers (small frames;
+the demo runs the full size). The core's ports: tests/test_soc_core.py."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from sim.model.pipeline import run_clip
-from soc.core import CLOCK_DOMAINS, CORE_NAME, StereogestCore, core_ports, emit_core_verilog
 from sim.model.pipeline import video_picture
 from verif.end_to_end import frames_to_still, hold_still, run_end_to_end
 from verif.system import SystemBus, VerilatorSystem, decode_uart
@@ -18,41 +17,6 @@ from sw_hps.telegram import telegram
 from tests.test_hdl_gesture_pipeline import SMALL, small_frames
 
 W, H = 32, 16
-
-
-def test_core_ports_are_the_documented_ones():
-    from soc.platform_designer import verilog_ports
-    core = StereogestCore(W, H, SMALL)
-    text = emit_core_verilog(core)
-    ports = {name: (direction, width) for name, direction, width in verilog_ports(text, CORE_NAME)}
-    expected = {"clk": ("input", 1), "rst": ("input", 1),
-                "fifo__address": ("input", 3), "fifo__readdata": ("output", 32),
-                "uart__address": ("input", 2), "uart__writedata": ("input", 32),
-                "left__data": ("input", 8), "right__vsync": ("input", 1),
-                "left_i2c__sda_oe": ("output", 1), "right_i2c__scl_i": ("input", 1),
-                "uart_tx": ("output", 1), "uart_rx": ("input", 1),
-                "vga__r": ("output", 8), "vga__blank_n": ("output", 1),
-                "stage_select": ("input", 3), "capture": ("input", 1), "pause": ("input", 1),
-                "configure": ("input", 1), "leds": ("output", 10)}
-    for domain in CLOCK_DOMAINS:
-        expected[f"{domain}_clk"] = ("input", 1)
-        expected[f"{domain}_rst"] = ("input", 1)
-    for name, port in expected.items():
-        assert ports.get(name) == port, name
-    # the list Platform Designer and the simulation wrapper are built from, taken
-    # from the signature, is the emitted Verilog's
-    assert sorted(core_ports(core)) == sorted(verilog_ports(text, CORE_NAME))
-
-
-@pytest.mark.parametrize("kwargs, word", [
-    (dict(sync_freq=0), "sync_freq"), (dict(config_freq=1e12), "config_freq"),
-    (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"),
-])
-def test_core_rejects_bad_parameters(kwargs, word):
-    args = dict(width=W, height=H, params=SMALL)
-    args.update(kwargs)
-    with pytest.raises(ValueError, match=word):
-        StereogestCore(**args)
 
 
 def test_decode_uart_is_a_real_receiver():

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.model.pipeline import PipelineParams
+from sim.model.validation import check_int
 
 from .clocks import Clocks, camera_waveforms, clip_timing
 from .pipeline import CFLAGS
@@ -121,8 +122,7 @@ class VerilatorSystem:
         if left_frames.shape != right_frames.shape or left_frames.ndim != 3:
             raise ValueError(f"left and right frames must be equal (F, H, 2W) arrays, got "
                              f"{left_frames.shape} and {right_frames.shape}")
-        if isinstance(stage, bool) or not isinstance(stage, int) or not 0 <= stage <= 7:
-            raise ValueError(f"stage must be an int in [0, 7], got {stage!r}")
+        check_int("stage", stage, 0, 7)
         self.height, self.width = left_frames.shape[1], left_frames.shape[2] // 2
         params.validate(self.width, self.height)
         self.clocks = clocks

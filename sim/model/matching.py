@@ -39,7 +39,7 @@ from .validation import check_image, check_int, check_odd_window, check_same_sha
 
 __all__ = [
     "HAMMING_WINDOW_RANGE", "MAX_DISPARITY_RANGE", "default_no_match_cost",
-    "hamming_volume", "window_sum", "shd_volume", "winner_take_all",
+    "hamming_volume", "column_sum", "row_sum", "window_sum", "shd_volume", "winner_take_all",
     "lr_consistency", "DisparityMaps", "disparity_maps",
 ]
 
@@ -97,19 +97,45 @@ def hamming_volume(census_left, census_right, max_disparity: int,
     return vol
 
 
-def window_sum(values, window: int) -> np.ndarray:
-    """Sum over a ``window`` x ``window`` box centred on each pixel (eq. 3).
-
-    Works on the last two axes; positions outside the frame count 0. The sum
-    is computed in the smallest unsigned dtype that cannot overflow.
-    """
+def _check_sum_input(values, window):
     arr = np.asarray(values)
     window = check_odd_window("hamming_window", window, *HAMMING_WINDOW_RANGE)
     if arr.ndim < 2 or arr.dtype.kind not in "ui":
         raise ValueError(f"values must be an integer array with at least 2 axes, got {arr.shape}")
     max_term = int(arr.max()) if arr.size else 0
-    dtype = _sum_dtype(window * window, max(max_term, 1))
-    return _box_sum(arr, window, dtype)
+    return arr, window, max(max_term, 1)
+
+
+def column_sum(values, window: int) -> np.ndarray:
+    """Sum over the ``window`` rows centred on each pixel (the column sums C_d
+    of Figs. 49 and 51, :class:`hdl.column_sum.ColumnSum`).
+
+    Works on the second-last axis; rows outside the frame count 0. The sum is
+    computed in the smallest unsigned dtype that cannot overflow.
+    """
+    arr, window, max_term = _check_sum_input(values, window)
+    return _axis_sum(arr, window, -2, _sum_dtype(window, max_term))
+
+
+def row_sum(values, window: int) -> np.ndarray:
+    """Sum over the ``window`` columns centred on each pixel (the window sums
+    S_d of column sums, :class:`hdl.window_sum.WindowSum`).
+
+    Works on the last axis; columns outside the frame count 0.
+    """
+    arr, window, max_term = _check_sum_input(values, window)
+    return _axis_sum(arr, window, -1, _sum_dtype(window, max_term))
+
+
+def window_sum(values, window: int) -> np.ndarray:
+    """Sum over a ``window`` x ``window`` box centred on each pixel (eq. 3):
+    :func:`row_sum` of :func:`column_sum`.
+
+    Works on the last two axes; positions outside the frame count 0. The sum
+    is computed in the smallest unsigned dtype that cannot overflow.
+    """
+    arr, window, max_term = _check_sum_input(values, window)
+    return _box_sum(arr, window, _sum_dtype(window * window, max_term))
 
 
 def _sliding_sum(values, window: int, axis: int):
@@ -137,12 +163,17 @@ def _sliding_sum(values, window: int, axis: int):
     return total
 
 
+def _axis_sum(arr, window, axis, dtype):
+    """Zero-padded sums of ``window`` entries centred on each one along ``axis``."""
+    r = window // 2
+    pad = [(0, 0)] * arr.ndim
+    pad[axis] = (r, r)
+    return _sliding_sum(np.pad(arr.astype(dtype, copy=False), pad), window, axis)
+
+
 def _box_sum(arr, window, dtype):
     """Zero-padded ``window`` x ``window`` box sum over the last two axes."""
-    r = window // 2
-    pad = [(0, 0)] * (arr.ndim - 2) + [(r, r), (r, r)]
-    padded = np.pad(arr.astype(dtype, copy=False), pad)
-    return _sliding_sum(_sliding_sum(padded, window, -2), window, -1)
+    return _axis_sum(_axis_sum(arr, window, -2, dtype), window, -1, dtype)
 
 
 def shd_volume(census_left, census_right, hamming_window: int, max_disparity: int,

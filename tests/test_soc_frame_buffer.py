@@ -1,8 +1,8 @@
 # amaranth: UnusedElaboratable=no
-"""VGA debug view (thesis Table 22, SW[9:7]): the video mode figures, the raster
-timing, and the dual-clock frame buffer in the Amaranth simulator, bit for bit
-against the golden model :func:`sim.model.vga.vga_frame` on a small test mode,
-the pipeline clock (10 ns) and the pixel clock (39.7 ns) unrelated."""
+"""soc/frame_buffer.py: the dual-clock frame buffer of the VGA debug view in the
+Amaranth simulator, bit for bit against the golden model
+:func:`sim.model.vga.vga_frame` on a small test mode, the pipeline clock (10 ns)
+and the pixel clock (39.7 ns) unrelated."""
 import re
 
 import numpy as np
@@ -10,117 +10,11 @@ import pytest
 from amaranth.sim import Simulator
 
 from soc.frame_buffer import READ_LATENCY, FrameBuffer
-from soc.vga_timing import VGA_640x480_60, VgaMode, VgaTiming
-from sim.model.vga import VGA_CHANNELS, grey_levels, vga_frame
+from sim.model.vga import VGA_CHANNELS, vga_frame
+from tests.test_soc_vga_timing import (TEST_MODE, TEST_MODE_POSITIVE, VGA_PERIOD,
+                                       check_sync_pulses)
 
 SYNC_PERIOD = 10e-9
-VGA_PERIOD = 39.7e-9
-
-#: 16x8 visible, 23 x 12 total: small porches, both sync polarities covered.
-TEST_MODE = VgaMode(25_000_000, 16, 2, 3, 2, 8, 1, 2, 1, True, True)
-TEST_MODE_POSITIVE = VgaMode(25_000_000, 16, 1, 2, 3, 8, 2, 1, 1, False, True)
-
-HSYNC, VSYNC, BLANK_N = (VGA_CHANNELS.index(n) for n in ("hsync", "vsync", "blank_n"))
-
-
-# ------------------------------------------------------------------ VgaMode
-
-
-def test_vga_640x480_60_figures():
-    mode = VGA_640x480_60
-    assert (mode.h_total, mode.v_total) == (800, 525)
-    assert round(mode.refresh_hz, 2) == 59.94
-    assert (mode.h_sync_start, mode.v_sync_start) == (656, 490)
-    assert mode.hsync_negative and mode.vsync_negative
-
-
-@pytest.mark.parametrize("field, value", [
-    ("pixel_clock", 0), ("h_active", 0), ("h_front", -1), ("h_sync", 0), ("h_back", -2),
-    ("v_active", 0), ("v_front", -1), ("v_sync", 0), ("v_back", 1.5), ("h_active", 640.0),
-    ("hsync_negative", 1), ("vsync_negative", None), ("h_back", 9000)])
-def test_vga_mode_validation_names_the_field(field, value):
-    figures = dict(pixel_clock=25_000_000, h_active=16, h_front=2, h_sync=3, h_back=2,
-                   v_active=8, v_front=1, v_sync=2, v_back=1,
-                   hsync_negative=True, vsync_negative=False)
-    figures[field] = value
-    with pytest.raises(ValueError, match=field):
-        VgaMode(**figures)
-
-
-def test_vga_mode_total_limit():
-    with pytest.raises(ValueError, match="h_total"):
-        VgaMode(1, 4000, 4000, 100, 100, 8, 1, 1, 1, True, True)
-
-
-def test_vga_mode_is_frozen():
-    with pytest.raises(AttributeError):
-        VGA_640x480_60.h_active = 320
-
-
-# ------------------------------------------------------------------ golden model
-
-
-def test_model_640x480_sync_positions():
-    image = np.arange(640 * 480, dtype=np.int64).reshape(480, 640) % 256
-    frame = vga_frame(image.astype(np.uint8), VGA_640x480_60, 4)
-    assert frame.shape == (525, 800, 6)
-    assert (np.flatnonzero(frame[0, :, HSYNC] == 0) == np.arange(656, 752)).all()
-    assert (np.flatnonzero(frame[:, 0, VSYNC] == 0) == np.arange(490, 492)).all()
-    assert (frame[:, :, VSYNC] == frame[:, :1, VSYNC]).all()  # whole lines
-    assert frame[:, :, BLANK_N].sum() == 640 * 480
-    assert frame[:480, :640, BLANK_N].all()
-    assert (frame[:480, :640, 0] == ((image >> 4) * 17)).all()
-
-
-def test_model_grey_replication():
-    pixels = np.array([0, 0xA7, 0x80, 0x7F, 255])
-    assert list(grey_levels(pixels, 4)) == [0, 0xAA, 0x88, 0x77, 255]
-    assert list(grey_levels(pixels, 3)) == [0, 0b10110110, 0b10010010, 0b01101101, 255]
-    assert list(grey_levels(pixels, 1)) == [0, 255, 255, 0, 255]
-    assert list(grey_levels(pixels, 8)) == list(pixels)
-    levels = grey_levels(np.arange(256), 5)
-    assert (np.diff(levels.astype(int)) >= 0).all() and len(set(levels)) == 32
-
-
-def test_model_rejects_bad_arguments():
-    with pytest.raises(ValueError, match="pixel_bits"):
-        vga_frame(np.zeros((8, 16), np.uint8), TEST_MODE, 9)
-    with pytest.raises(ValueError, match="width"):
-        vga_frame(np.zeros((8, 17), np.uint8), TEST_MODE, 4)
-    with pytest.raises(ValueError, match="height"):
-        vga_frame(np.zeros((9, 16), np.uint8), TEST_MODE, 4)
-
-
-# ------------------------------------------------------------------ raster timing
-
-
-def test_vga_timing_raster():
-    mode = TEST_MODE_POSITIVE
-    dut = VgaTiming(mode)
-    model = vga_frame(np.zeros((1, 1), np.uint8), mode, 8)
-    total = mode.h_total * mode.v_total
-    seen = []
-
-    async def testbench(ctx):
-        for _ in range(2 * total + 5):
-            seen.append([ctx.get(s) for s in (dut.x, dut.y, dut.active, dut.hsync,
-                                              dut.vsync, dut.frame_start)])
-            await ctx.tick()
-
-    sim = Simulator(dut)
-    sim.add_clock(VGA_PERIOD)
-    sim.add_testbench(testbench)
-    sim.run()
-    seen = np.array(seen)
-    k = np.arange(len(seen)) % total
-    assert (seen[:, 0] == k % mode.h_total).all() and (seen[:, 1] == k // mode.h_total).all()
-    flat = model.reshape(total, -1)[k]
-    assert (seen[:, 2] == flat[:, BLANK_N]).all()
-    assert (seen[:, 3] == flat[:, HSYNC]).all() and (seen[:, 4] == flat[:, VSYNC]).all()
-    assert (np.flatnonzero(seen[:, 5]) == [0, total, 2 * total]).all()
-
-
-# ------------------------------------------------------------------ frame buffer
 
 
 def _run_frame_buffer(dut, images, seed, extra_beats=20, idle=0.3):
@@ -185,19 +79,6 @@ def _run_frame_buffer(dut, images, seed, extra_beats=20, idle=0.3):
     return frames
 
 
-def _check_sync_pulses(frame, mode):
-    """Pulse widths, positions and polarity, straight from the mode figures."""
-    hsync_on = frame[:, :, HSYNC] ^ int(mode.hsync_negative)
-    vsync_on = frame[:, :, VSYNC] ^ int(mode.vsync_negative)
-    for row in hsync_on:
-        assert (np.flatnonzero(row) == np.arange(mode.h_sync) + mode.h_sync_start).all()
-    assert (vsync_on == vsync_on[:, :1]).all()
-    assert (np.flatnonzero(vsync_on[:, 0]) == np.arange(mode.v_sync) + mode.v_sync_start).all()
-    blank_n = frame[:, :, BLANK_N]
-    assert blank_n[:mode.v_active, :mode.h_active].all() and \
-        blank_n.sum() == mode.h_active * mode.v_active
-
-
 @pytest.mark.parametrize("width, height, pixel_bits, mode", [
     (12, 6, 4, TEST_MODE), (16, 8, 4, TEST_MODE), (16, 8, 3, TEST_MODE_POSITIVE),
     (12, 6, 8, TEST_MODE_POSITIVE), (16, 8, 1, TEST_MODE), (1, 1, 5, TEST_MODE)])
@@ -210,7 +91,7 @@ def test_frame_buffer_equals_model(width, height, pixel_bits, mode):
     assert dut.memory_bits == width * height * pixel_bits
     got = _run_frame_buffer(dut, images, seed=width + pixel_bits)
     for image, frame in zip(images, got):
-        _check_sync_pulses(frame, mode)
+        check_sync_pulses(frame, mode)
         expected = vga_frame(image, mode, pixel_bits)
         for channel, name in enumerate(VGA_CHANNELS):
             assert (frame[:, :, channel] == expected[:, :, channel]).all(), name

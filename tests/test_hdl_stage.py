@@ -1,0 +1,72 @@
+# amaranth: UnusedElaboratable=no
+"""hdl/stage.py: every pixel stage declares the PixelStage protocol, and the
+``*_timing`` function beside each component gives, from its parameters alone,
+the lag and cycles of the built component."""
+import numpy as np
+import pytest
+
+from hdl.census import SparseCensus, census_timing
+from hdl.column_sum import ColumnSum, column_sum_timing
+from hdl.lrcc import LeftRightCheck, lrcc_timing
+from hdl.median3x3 import Median3x3, median_timing
+from hdl.morphology import BinaryMorphology, morphology_timing
+from hdl.opening import Opening, opening_timing
+from hdl.segmentation import HandSegmentation
+from hdl.selectors import DisparitySelectors, selectors_timing
+from hdl.shd import SumOfHammingDistances, shd_timing
+from hdl.stage import PixelStage, StageTiming
+from hdl.stereo_matcher import StereoMatcher, matcher_timing
+from hdl.window import WindowGenerator, window_timing
+from hdl.window_sum import WindowSum, window_sum_timing
+from hdl.ycbcr422 import YCbCr422To444
+from sim.model.census import census_bits
+
+W, H = 48, 12
+CROSS5 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
+
+CASES = [
+    (lambda: SparseCensus(width=W, height=H, census_window=5), census_timing(W, 5)),
+    (lambda: ColumnSum(width=W, height=H, hamming_window=5, max_disparity=4, max_term=8),
+     column_sum_timing(W, 5)),
+    (lambda: WindowSum(width=W, height=H, hamming_window=7, max_disparity=4, max_term=40),
+     window_sum_timing(7)),
+    (lambda: SumOfHammingDistances(width=W, height=H, census_bits=census_bits(5),
+                                   hamming_window=5, max_disparity=8),
+     shd_timing(W, census_bits(5), 5)),
+    (lambda: DisparitySelectors(width=W, height=H, max_disparity=8, cost_bits=10),
+     selectors_timing(8)),
+    (lambda: LeftRightCheck(width=W, height=H, max_disparity=8), lrcc_timing(8)),
+    (lambda: Median3x3(width=W, height=H), median_timing(W)),
+    (lambda: WindowGenerator(width=W, height=H, pixel_bits=8, window=7), window_timing(W, 7)),
+    (lambda: BinaryMorphology(width=W, height=H, element="square", size=5),
+     morphology_timing(W, np.ones((5, 5), bool))),
+    (lambda: Opening(width=W, height=H, element=CROSS5), opening_timing(W, CROSS5)),
+    (lambda: StereoMatcher(width=W, height=H, census_window=3, hamming_window=5,
+                           max_disparity=8), matcher_timing(W, 3, 5, 8)),
+    (lambda: StereoMatcher(width=W, height=H, census_window=3, hamming_window=5,
+                           max_disparity=8, disparity_median=False),
+     matcher_timing(W, 3, 5, 8, disparity_median=False)),
+]
+
+
+@pytest.mark.parametrize("make, timing", CASES,
+                         ids=[type(make()).__name__ + str(i) for i, (make, _) in enumerate(CASES)])
+def test_timing_function_equals_the_built_stage(make, timing):
+    stage = make()
+    assert isinstance(timing, StageTiming)
+    assert (stage.lag, stage.cycles) == tuple(timing)
+
+
+@pytest.mark.parametrize("make", [case[0] for case in CASES] + [
+    lambda: YCbCr422To444(width=W, height=H),
+    lambda: HandSegmentation(width=W, height=H, max_disparity=8, band_low=2)])
+def test_every_pixel_stage_declares_the_protocol(make):
+    stage = make()
+    assert isinstance(stage, PixelStage)
+    assert stage.lag >= 0 and stage.cycles >= 1
+    bits = stage.memory_bits
+    assert isinstance(bits, (int, dict))
+
+
+def test_the_protocol_is_not_satisfied_by_anything():
+    assert not isinstance(object(), PixelStage)
