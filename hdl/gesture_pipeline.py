@@ -10,6 +10,7 @@ Stages, in dataflow order (each a component of :mod:`hdl`)::
     sync domain (pipeline clock)
         StereoSynchronizer        §5.3   AsyncFIFOs, frame pairing, flush beats
         YCbCr422To444        x2   §5.4   Y, Cb, Cr per pixel
+        Rectifier            x2   §10.1  optional: Y, Cb, Cr left, Y right
         Median3x3            x2   §6.1   Y of each camera
         StereoMatcher             §6.2   census, SHD, L2R/R2L, LRCC, disparity median
         HandSegmentation          §6.3   skin (left Cb/Cr, delayed) AND disparity band
@@ -36,12 +37,13 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from amaranth.hdl import ClockDomain, DomainRenamer, Module, Mux, Signal
+from amaranth.hdl import Cat, ClockDomain, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from sim.model.morphology import resolve_element
-from sim.model.pipeline import VIDEO_STAGES, PipelineParams
+from sim.model.pipeline import VIDEO_STAGES, PipelineParams, check_rectification
+from sim.model.rectify import StereoRectification
 
 from ._util import bits_for
 from .camera_capture import CameraCapture
@@ -51,6 +53,7 @@ from .median3x3 import Median3x3, median_timing
 from .moving_average import MovingAverage
 from .opening import Opening, opening_timing
 from .raster_position import OVERRUN_ROWS
+from .rectify import Rectifier, rectify_timing
 from .segmentation import HandSegmentation
 from .stage import PixelStage, StageTiming
 from .stereo_matcher import StereoMatcher, matcher_timing
@@ -85,8 +88,8 @@ class PipelineTiming(NamedTuple):
     record_cycles: int
 
 
-def pipeline_timing(width: int, height: int,
-                    params: PipelineParams = PipelineParams()) -> PipelineTiming:
+def pipeline_timing(width: int, height: int, params: PipelineParams = PipelineParams(),
+                    rectification: StereoRectification | None = None) -> PipelineTiming:
     """The timing of :class:`GesturePipeline` from its parameters alone (nothing
     is built): each stage's ``*_timing`` function, the one its component uses.
 
@@ -94,9 +97,13 @@ def pipeline_timing(width: int, height: int,
     windows look further ahead than the position counters run past a frame.
     """
     params.validate(width, height)
+    check_rectification(rectification, width, height)
     p = params
     element = resolve_element(p.opening_shape, p.opening_size)
-    pixel = [StageTiming(YCbCr422To444.lag, YCbCr422To444.cycles), median_timing(width),
+    rectify = [] if rectification is None else [rectify_timing(width,
+                                                               *rectification.max_shift)]
+    pixel = [StageTiming(YCbCr422To444.lag, YCbCr422To444.cycles), *rectify,
+             median_timing(width),
              matcher_timing(width, p.census_window, p.hamming_window, p.max_disparity),
              StageTiming(HandSegmentation.lag, HandSegmentation.cycles),
              opening_timing(width, element)]
@@ -120,6 +127,10 @@ class GesturePipeline(wiring.Component):
     params : sim.model.pipeline.PipelineParams
         Every algorithm parameter, the golden model's own object (thesis
         run-time values by default); validated for this frame size.
+    rectification : sim.model.rectify.StereoRectification or None
+        Both cameras' compressed maps: a :class:`~hdl.rectify.Rectifier` per
+        camera after the 4:4:4 conversion (both with the larger reach of the
+        two, so that they keep step). None: no rectification (the thesis).
     fifo_depth : power of two in [16, 65536]
         Words of each synchroniser FIFO (absorbs the cameras' phase difference).
     sync_threshold : int
@@ -139,15 +150,27 @@ class GesturePipeline(wiring.Component):
     """
 
     def __init__(self, width: int = 640, height: int = 480,
-                 params: PipelineParams = PipelineParams(), *, fifo_depth: int = 2048,
+                 params: PipelineParams = PipelineParams(), *,
+                 rectification: StereoRectification | None = None, fifo_depth: int = 2048,
                  sync_threshold: int = 64):
         if not isinstance(params, PipelineParams):
             raise ValueError(f"params must be a PipelineParams, got {type(params).__name__}")
         params.validate(width, height)        # the frame size too: one range, the model's
+        check_rectification(rectification, width, height)
         self.width, self.height, self.params = width, height, params
+        self.rectification = rectification
         p = params
         self._capture = [CameraCapture(width, height) for _ in range(2)]
         self._to444 = [YCbCr422To444(width, height) for _ in range(2)]
+        if rectification is None:
+            self._rectify = []
+        else:
+            reach_x, reach_y = rectification.max_shift
+            self._rectify = [
+                Rectifier(width, height, grid, lanes=lanes,
+                          interpolation=rectification.interpolation,
+                          max_shift_x=reach_x, max_shift_y=reach_y)
+                for grid, lanes in ((rectification.left, 3), (rectification.right, 1))]
         self._median = [Median3x3(width, height, pixel_bits=8) for _ in range(2)]
         self._matcher = StereoMatcher(width, height, census_window=p.census_window,
                                       hamming_window=p.hamming_window,
@@ -167,15 +190,17 @@ class GesturePipeline(wiring.Component):
                                          threshold=p.spot_threshold, hold=p.spot_hold,
                                          frac_bits=p.frac_bits)
         #: the pixel stages in order (:class:`hdl.stage.PixelStage`)
-        self.pixel_stages: list[PixelStage] = [self._to444[0], med, mat, self._segment,
-                                               self._opening]
+        self.pixel_stages: list[PixelStage] = [self._to444[0], *self._rectify[:1], med, mat,
+                                               self._segment, self._opening]
         #: :func:`pipeline_timing` of this pipeline, field by field
         self.flush, self.pixel_cycles, self.frame_cycles, self.record_cycles = \
-            pipeline_timing(width, height, params)
+            pipeline_timing(width, height, params, rectification)
         self._sync = StereoSynchronizer(width, height, fifo_depth=fifo_depth,
                                         threshold=min(sync_threshold, width * height),
                                         flush=self.flush)
         self.memory_bits = {
+            **{f"rectify {side} {k}": v for side, r in zip(("left", "right"), self._rectify)
+               for k, v in r.memory_bits.items()},
             "median row buffers": 2 * med.memory_bits,
             **{f"matcher {k}": v for k, v in mat.memory_bits.items()},
             "skin delay line": self._segment.memory_bits,
@@ -203,6 +228,7 @@ class GesturePipeline(wiring.Component):
         return {"capture_left": self._capture[0], "capture_right": self._capture[1],
                 "synchronizer": self._sync,
                 "to444_left": self._to444[0], "to444_right": self._to444[1],
+                **{f"rectify_{side}": r for side, r in zip(("left", "right"), self._rectify)},
                 "median_left": self._median[0], "median_right": self._median[1],
                 "matcher": self._matcher, "segmentation": self._segment,
                 "opening": self._opening, "centroid": self._centroid,
@@ -227,21 +253,31 @@ class GesturePipeline(wiring.Component):
 
         # --- pixel stages (sync domain), one beat per synchroniser beat ----------------
         to444, median = self._to444, self._median
+        colour = []          # per camera: the stream of Y (Cb, Cr) the median sees
         for k, side in enumerate(("left", "right")):
             m.submodules[f"to444_{side}"] = to444[k]
             m.submodules[f"median_{side}"] = median[k]
             word = getattr(frame.payload, side)
             connect_remapped(m, frame, to444[k].i_stream, luma=word.luma, chroma=word.chroma)
-            connect_remapped(m, to444[k].o_stream, median[k].i_stream,
-                             pixel=to444[k].o_stream.payload.y)
+            ycc = to444[k].o_stream
+            if self._rectify:
+                rect = self._rectify[k]
+                m.submodules[f"rectify_{side}"] = rect
+                lanes = [ycc.payload.y, ycc.payload.cb, ycc.payload.cr][:rect.lanes]
+                connect_remapped(m, ycc, rect.i_stream, pixel=Cat(*lanes))
+                pixel = rect.o_stream.payload.pixel
+                colour.append((rect.o_stream, *(pixel[lane] for lane in range(rect.lanes))))
+            else:
+                colour.append((ycc, ycc.payload.y, ycc.payload.cb, ycc.payload.cr))
+            connect_remapped(m, colour[k][0], median[k].i_stream, pixel=colour[k][1])
         m.submodules.matcher = mat = self._matcher
         m.d.comb += mat.threshold.eq(self.threshold)
         connect_remapped(m, median[0].o_stream, mat.i_stream,
                          left=median[0].o_stream.payload.pixel,
                          right=median[1].o_stream.payload.pixel)
         m.submodules.segmentation = seg = self._segment
-        chroma = to444[0].o_stream
-        connect_remapped(m, chroma, seg.i_chroma)
+        chroma, _, cb, cr = colour[0]
+        connect_remapped(m, chroma, seg.i_chroma, cb=cb, cr=cr)
         wiring.connect(m, mat.o_stream, seg.i_disparity)
         m.submodules.opening = opening = self._opening
         connect_remapped(m, seg.o_stream, opening.i_stream, pixel=seg.o_stream.payload.hand)

@@ -75,6 +75,9 @@ class StereogestCore(wiring.Component):
         Frame size (thesis 640 x 480); the cameras' registers set 640 x 480.
     params : sim.model.pipeline.PipelineParams
         Algorithm parameters (thesis run-time values by default).
+    rectification : sim.model.rectify.StereoRectification, optional
+        Both cameras' compressed maps (:func:`sim.calibration.stereo_rectification`):
+        the pipeline rectifies with them (:mod:`hdl.rectify`); None: it does not.
     sync_freq : float
         Pipeline and bus clock in Hz (:data:`soc.clocks.SYNC_HZ`, the thesis'
         100 MHz); sets the UART divisor.
@@ -107,7 +110,8 @@ class StereogestCore(wiring.Component):
     """
 
     def __init__(self, width: int = 640, height: int = 480,
-                 params: PipelineParams = PipelineParams(), *, sync_freq: float = SYNC_HZ,
+                 params: PipelineParams = PipelineParams(), *, rectification=None,
+                 sync_freq: float = SYNC_HZ,
                  config_freq: float = CONFIG_HZ, vga_mode: VgaMode = VGA_640x480_60,
                  fifo_depth: int = 512, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
@@ -119,7 +123,8 @@ class StereogestCore(wiring.Component):
             raise ValueError(f"vga_mode must be a VgaMode, got {type(vga_mode).__name__}")
         self.width, self.height, self.params = width, height, params
         self.vga_mode = vga_mode
-        self.pipeline = GesturePipeline(width, height, params, fifo_depth=sync_fifo_depth)
+        self.pipeline = GesturePipeline(width, height, params, rectification=rectification,
+                                        fifo_depth=sync_fifo_depth)
         record = self.pipeline.o_stream.payload.shape()
         data_bits = Shape.cast(record["x"].shape).width
         self.fifo_slave = FifoSlave(data_bits=data_bits, depth=fifo_depth)

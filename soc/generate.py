@@ -105,7 +105,8 @@ def check_out_dir(out_dir) -> Path:
 
 
 def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
-             vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, progress=None) -> BundleInfo:
+             vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, rectification=None,
+             progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
 
     Parameters
@@ -118,6 +119,8 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     sync_hz, vga_hz, xclk_hz : float
         PLL outputs: pipeline/bus clock, VGA pixel clock, camera XCLK
         (defaults from :mod:`soc.clocks`: 100, 25 and 24 MHz).
+    rectification : sim.model.rectify.StereoRectification, optional
+        The calibration's maps, built into the rectification stages.
     progress : callable, optional
         Called with one-line progress messages.
 
@@ -146,7 +149,8 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
 
     # the raster is the 640x480 one; the pixel clock is what the PLL makes
     vga_mode = dataclasses.replace(VGA_640x480_60, pixel_clock=int(round(vga_hz)))
-    core = StereogestCore(width, height, sync_freq=sync_hz, vga_mode=vga_mode)
+    core = StereogestCore(width, height, rectification=rectification, sync_freq=sync_hz,
+                          vga_mode=vga_mode)
     say(f"elaborating the core ({width}x{height}) ...")
     core_v = emit_core_verilog(core)
     ports = core_ports(core)

@@ -11,7 +11,7 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order a user meets them.
-COMMANDS = ("render", "clip", "stereo", "eval_stereo", "pipeline", "demo", "live", "gestures", "train", "classify",
+COMMANDS = ("render", "clip", "chessboards", "calibrate", "stereo", "eval_stereo", "pipeline", "demo", "live", "gestures", "train", "classify",
             "resources", "timing", "generate")
 
 

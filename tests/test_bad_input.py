@@ -60,6 +60,15 @@ def inputs(tmp_path_factory):
     for m in thesis["models"]:
         m["B"] = [[p * 0.9 for p in row] + [0.1] for row in m["B"]]
     (root / "nine_symbols.json").write_text(json.dumps(thesis))
+    from sim.calibration import StereoRig, rig_calibration, save_calibration
+    save_calibration(rig_calibration(StereoRig()), root / "calib640.json")
+    doc = json.loads((root / "calib640.json").read_text())
+    doc["R"] = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]
+    (root / "calib_bad_r.json").write_text(json.dumps(doc))
+    del doc["T"]
+    (root / "calib_no_t.json").write_text(json.dumps(doc))
+    (root / "unpaired").mkdir()
+    Image.fromarray(np.zeros((48, 64), np.uint8)).save(root / "unpaired" / "left_a.png")
     return root
 
 
@@ -282,6 +291,41 @@ CASES = [
     case("generate", "-o", f"{OUT}/b", "--height", "0", match="--height"),
     case("generate", "-o", f"{IN}/afile", match="afile"),
     case("generate", match="-o/--output"),
+    # ------------------------------------------------------------ chessboards, calibrate
+    *int_option_cases("chessboards", ["-o", f"{OUT}/cb"], ["--count", "--seed"]),
+    case("chessboards", match="-o/--output"),
+    *[case("chessboards", "-o", f"{OUT}/cb", option, value, match=option)
+      for option, value in [("--count", "0"), ("--count", "101"), ("--seed", "-1")]],
+    case("calibrate", match="required"),
+    case("calibrate", f"{IN}/adir", match="-o/--output"),
+    case("calibrate", f"{IN}/nope", "-o", f"{OUT}/c.json", match=f"PAIRS: {IN}/nope is not a folder"),
+    case("calibrate", f"{IN}/adir", "-o", f"{OUT}/c.json", match=f"PAIRS: {IN}/adir holds no left_*.png"),
+    case("calibrate", f"{IN}/unpaired", "-o", f"{OUT}/c.json", match="PAIRS: 1 pictures have no partner (e.g. left_a.png)"),
+    case("calibrate", f"{IN}/clip", "-o", f"{OUT}/c.json",
+         match="chessboard was found in both images of 0 of 3 pairs"),
+    *[case("calibrate", f"{IN}/adir", "-o", f"{OUT}/c.json", option, value, match=match)
+      for option, value, match in [("--pattern", "9", "--pattern must be COLSxROWS"),
+                                   ("--pattern", "2x6", "--pattern columns"),
+                                   ("--pattern", "9x99", "--pattern rows"),
+                                   ("--square", "0", "--square"), ("--square", "nan", "--square"),
+                                   ("--square", "abc", "argument --square")]],
+    case("calibrate", f"{IN}/adir", "-o", f"{OUT}/no/dir/c.json", match="does not exist"),
+    # ------------------------------------------------------------ --calibration
+    *[case(*command, "--calibration", calib, match=f"--calibration: {match}")
+      for command in (["stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o",
+                       f"{OUT}/d.png"],
+                      ["pipeline", f"{IN}/clip", "-o", f"{OUT}/p"],
+                      ["generate", "-o", f"{OUT}/b", "--width", "64", "--height", "16"])
+      for calib, match in [(f"{IN}/nope.json", f"{IN}/nope.json does not exist"),
+                           (f"{IN}/adir", f"{IN}/adir is a directory"),
+                           (f"{IN}/text.json", f"{IN}/text.json: not a calibration file"),
+                           (f"{IN}/empty.json", f"{IN}/empty.json: not a calibration file"),
+                           (f"{IN}/calib_bad_r.json",
+                            f"{IN}/calib_bad_r.json: R must be a rotation matrix"),
+                           (f"{IN}/calib_no_t.json", f"{IN}/calib_no_t.json: T is missing"),
+                           (f"{IN}/calib640.json", "the calibration is for 640x480 frames")]],
+    case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
+         "--interpolation", "cubic", match="invalid choice: 'cubic'"),
 ]
 
 
@@ -307,6 +351,8 @@ def _output_cases():
         (["generate", "--width", "64", "--height", "16", "-o"], "--output", []),
         (["timing", "--block", "median3x3", "-o"], "--output", []),
         (["timing", "--block", "median3x3", "--keep"], "--keep", []),
+        (["calibrate", f"{IN}/adir", "-o"], "--output", []),
+        (["chessboards", "--count", "1", "-o"], "--output", []),
     ]
     for before, option, suffix in outputs:
         for where, why in ((f"{RO}/x", "Read-only file system"), (f"{DENIED}/x", "Permission"),
@@ -363,6 +409,7 @@ def test_stereogest_bad_input(inputs, unwritable, tmp_path, capsys, monkeypatch,
     out.mkdir()
     monkeypatch.chdir(tmp_path)
     argv = _format(argv, inputs, out, unwritable)
+    match = _format([match], inputs, out)[0]
     before = _tree(inputs)
     try:
         status = cli.main(argv)

@@ -36,9 +36,10 @@ def small_frames(n, width=32, height=16, seed=0):
     return lefts, rights
 
 
-def golden(lefts, rights, params):
+def golden(lefts, rights, params, rectification=None):
     """Model records: per-frame centroid and area, then moving average and spotting."""
-    stages = [process_frame(l, r, params) for l, r in zip(lefts, rights)]
+    stages = [process_frame(l, r, params, rectification=rectification)
+              for l, r in zip(lefts, rights)]
     cents = np.array([[s.centroid.x, s.centroid.y] for s in stages])
     areas = np.array([s.centroid.area for s in stages])
     return stages, cents, areas, track(cents, areas, params)
@@ -83,17 +84,31 @@ def run_amaranth(dut, left_wave, right_wave, sync_cycles, video=False):
     return records, pixels
 
 
-def test_small_pipeline_equals_golden_model():
+def small_rectification(width=32, height=16):
+    """Both cameras rolled and shifted by a pixel or two (tests/test_model_rectify.py)."""
+    from sim.model.rectify import StereoRectification
+    from tests.test_model_rectify import grid_of, rotation_homography
+    return StereoRectification(
+        grid_of(rotation_homography(width, height, 0.8, 0.4, 0.6), width, height, 4, 4),
+        grid_of(rotation_homography(width, height, -0.6, -0.3, -0.5), width, height, 4, 4))
+
+
+@pytest.mark.parametrize("rectified", [False, True])
+def test_small_pipeline_equals_golden_model(rectified):
     width, height, n = 32, 16, 4
     lefts, rights = small_frames(n, width, height)
-    dut = GesturePipeline(width, height, SMALL, fifo_depth=256, sync_threshold=8)
+    rectification = small_rectification(width, height) if rectified else None
+    dut = GesturePipeline(width, height, SMALL, rectification=rectification, fifo_depth=256,
+                          sync_threshold=8)
     timing = CameraTiming(vsync_cycles=8, front_porch=2 * dut.flush + 64, hblank=12,
                           back_porch=2 * dut.flush)
     left_wave = camera_waveform(lefts, timing, start_delay=40)
     right_wave = camera_waveform(rights, timing, start_delay=130)
     cycles = len(left_wave.vsync) // 2 + dut.record_cycles + 400
     records, _ = run_amaranth(dut, left_wave, right_wave, cycles)
-    stages, cents, areas, traj = golden(lefts, rights, SMALL)
+    stages, cents, areas, traj = golden(lefts, rights, SMALL, rectification)
+    if rectified:        # the rectification changes what the pipeline sees
+        assert (golden(lefts, rights, SMALL)[1] != cents).any()
     assert len(records) == n
     assert (areas > 0).sum() >= n - 1, "the test frames must contain a hand"
     for k, rec in enumerate(records):

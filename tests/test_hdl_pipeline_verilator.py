@@ -158,3 +158,40 @@ def test_stage_select_video_shows_the_golden_model_stage(stage):
         picture = video_picture(st, stage, disparity_bits)
         got = pixels[first[k]:first[k] + WIDTH * HEIGHT].reshape(HEIGHT, WIDTH)
         assert np.array_equal(got, picture), (stage, k)
+
+
+# ---------------------------------------------------------------- rectification
+
+
+def test_rectified_vga_frames_equal_golden_model(vga_clip):
+    """The Rectifier stages in the whole pipeline's Verilog (the default rig's
+    maps, sim.calibration.StereoRig: row buffers of 2 * 17 + 4 rows) on full
+    640x480 frames from a misaligned rig, with a small matcher: every record,
+    and the rectified left picture of every frame (video output) pixel for
+    pixel the golden model's."""
+    from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
+    from sim.calibration import (StereoRig, misalign_frames, rig_calibration,
+                                 stereo_rectification)
+    from sim.model.pipeline import process_frame, video_picture
+    from sim.model.rectify import misalignment
+    from verif.clocks import camera_waveforms
+    clip, _ = vga_clip
+    rect = stereo_rectification(rig_calibration(StereoRig()))
+    assert rect.max_shift[1] == 17
+    lefts = misalign_frames(clip.left, misalignment(640, 480, roll=0.5, shift_y=1.0))
+    rights = misalign_frames(clip.right, misalignment(640, 480, roll=-0.4, shift_y=-0.8))
+    flush = pipeline_timing(640, 480, SMALL, rect).flush
+    left, right = camera_waveforms(lefts, rights, clip_timing(640, 480, flush))
+    run = run_pipeline(left, right, 640, 480, SMALL, rectification=rect,
+                       video_select=VIDEO_STAGES.index("left"))
+    stages = [process_frame(a, b, SMALL, rectification=rect) for a, b in zip(lefts, rights)]
+    cents = np.array([[s.centroid.x, s.centroid.y] for s in stages])
+    rec = run.records
+    assert len(rec) == len(stages)
+    assert np.array_equal(np.stack([rec["centroid_x"], rec["centroid_y"]], 1), cents)
+    assert np.array_equal(rec["area"], [s.centroid.area for s in stages])
+    first = np.flatnonzero(run.video >> 8)
+    pixels = (run.video & 0xFF).astype(np.int64)
+    for k, st in enumerate(stages):
+        got = pixels[first[k]:first[k] + 640 * 480].reshape(480, 640)
+        assert np.array_equal(got, video_picture(st, "left", 3)), k

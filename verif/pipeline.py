@@ -80,9 +80,10 @@ endmodule
 """
 
 
-def _make_top(width, height, params, fifo_depth):
+def _make_top(width, height, params, fifo_depth, rectification=None):
     from hdl.gesture_pipeline import GesturePipeline, PipelineTop
-    return PipelineTop(GesturePipeline(width, height, params, fifo_depth=fifo_depth))
+    return PipelineTop(GesturePipeline(width, height, params, rectification=rectification,
+                                       fifo_depth=fifo_depth))
 
 
 #: C++ optimisation of the Verilated model: -O3 -march=native ran 2.5 times as
@@ -92,13 +93,19 @@ CFLAGS = "-O3 -march=native"
 
 def build_pipeline(width: int, height: int, params: PipelineParams = PipelineParams(),
                    fifo_depth: int = 2048, jobs: int | None = None, threads: int = 1,
-                   cflags: str = CFLAGS, emission: str = EMISSIONS[0]) -> Path:
+                   cflags: str = CFLAGS, emission: str = EMISSIONS[0],
+                   rectification=None) -> Path:
     """Build (or reuse) the Verilated pipeline harness; returns the executable.
     ``threads`` > 1 builds a multithreaded model (Verilator ``--threads``);
-    ``emission``: how its Verilog is written (:data:`verif.verilator.EMISSIONS`)."""
+    ``emission``: how its Verilog is written (:data:`verif.verilator.EMISSIONS`);
+    ``rectification``: :class:`sim.model.rectify.StereoRectification` or None."""
+    from sim.model.pipeline import check_rectification
     params.validate(width, height)
+    check_rectification(rectification, width, height)
     spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
                 cflags=cflags, emission=emission, **params.as_dict())
+    if rectification is not None:
+        spec["rectification"] = rectification.digest()
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = sources_digest(["hdl"], [HARNESS])
     folder = build_root() / f"pipeline-{key}-{digest}"
@@ -106,7 +113,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     if exe.exists():
         return exe
     from hdl.synthesis import component_ports
-    top = _make_top(width, height, params, fifo_depth)      # built only when not cached
+    top = _make_top(width, height, params, fifo_depth, rectification)   # only when not cached
     core = TOP + "_core"
     text = simulation_verilog(top, core, component_ports(top), emission)
     return verilate(folder, f"{TOP}.v", text + _wrapper(top, core), spec, TOP,
@@ -118,16 +125,18 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
                  fifo_depth: int = 2048, drain: int | None = None, reset_at: int = -1,
                  reset_cycles: int = 16, video_select: int | None = None,
                  jobs: int | None = None, threads: int = 1,
-                 emission: str = EMISSIONS[0]) -> PipelineRun:
+                 emission: str = EMISSIONS[0], rectification=None) -> PipelineRun:
     """Replay two camera waveforms (:class:`sim.camera.CameraWaveform`) through the
     Verilated pipeline; returns its per-frame records and the harness statistics.
     ``drain``: pipeline cycles run after the cameras' last sample (default: enough
     for the last frame's flush, record and the FIFOs)."""
     from hdl.gesture_pipeline import pipeline_timing
     from sim.camera import pack_pins
-    exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS, emission)
+    exe = build_pipeline(width, height, params, fifo_depth, jobs, threads, CFLAGS, emission,
+                         rectification)
     if drain is None:
-        drain = pipeline_timing(width, height, params).record_cycles + 2 * fifo_depth + 4 * width
+        drain = pipeline_timing(width, height, params, rectification).record_cycles \
+            + 2 * fifo_depth + 4 * width
     dtype = np.dtype([(name, "<i8") for name in RECORD_FIELDS])
     with tempfile.TemporaryDirectory() as tmp:
         paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin")]
@@ -150,7 +159,7 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
 
 def run_clip_hardware(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
                       clocks: Clocks = Clocks(), fifo_depth: int = 2048,
-                      emission: str = EMISSIONS[0]):
+                      emission: str = EMISSIONS[0], rectification=None):
     """A clip's 4:2:2 frames through the Verilated pipeline, as the golden model's
     :class:`sim.model.pipeline.Trajectory` (``symbol`` from the records' smoothed
     points and flags, as :func:`~sim.model.pipeline.step_symbols` does), plus the
@@ -161,11 +170,11 @@ def run_clip_hardware(left_frames, right_frames, params: PipelineParams = Pipeli
     frames = len(left_frames)
     height, width = np.shape(left_frames[0])[0], np.shape(left_frames[0])[1] // 2
     params.validate(width, height)
-    flush = pipeline_timing(width, height, params).flush
+    flush = pipeline_timing(width, height, params, rectification).flush
     timing = clip_timing(width, height, flush, clocks)
     left_wave, right_wave = camera_waveforms(left_frames, right_frames, timing)
     run = run_pipeline(left_wave, right_wave, width, height, params, clocks=clocks,
-                       fifo_depth=fifo_depth, emission=emission)
+                       fifo_depth=fifo_depth, emission=emission, rectification=rectification)
     rec = run.records
     if len(rec) != frames:
         raise RuntimeError(f"the pipeline produced {len(rec)} frame records for {frames} frames "

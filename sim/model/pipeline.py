@@ -6,6 +6,7 @@ list of stages, each a pure function of :mod:`sim.model`::
 
     per frame (§5.4, §6.1-6.4, §7.1)
         ycbcr422_to_444      left and right camera byte streams
+        rectify              optional (§10.1): Y, Cb, Cr left, Y right
         median3x3            Y of each camera
         stereo_match         census, SHD, L2R/R2L, LRCC, disparity median
         skin_mask            Cb/Cr of the left camera (the disparity's reference)
@@ -32,12 +33,13 @@ from .median import median3x3
 from .morphology import opening, structuring_element
 from .moving_average import moving_average
 from .orientation import NO_SYMBOL, orientation_symbols
+from .rectify import StereoRectification, rectify_pair
 from .segmentation import disparity_band, hand_mask, skin_mask
 from .stereo import check_stereo_params, stereo_match
 from .validation import check_int
 from .ycbcr import ycbcr422_to_444
 
-__all__ = ["PipelineParams", "DEMO_SPOT_HOLD", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",
+__all__ = ["check_rectification", "PipelineParams", "DEMO_SPOT_HOLD", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",
            "step_symbols", "run_clip"]
 
 
@@ -150,17 +152,37 @@ class FrameStages(NamedTuple):
     centroid: Centroid
 
 
+def check_rectification(rectification, width: int, height: int) -> None:
+    """Refuse a rectification that is not a :class:`StereoRectification` for
+    ``width`` x ``height`` frames (None, no rectification, passes)."""
+    if rectification is None:
+        return
+    if not isinstance(rectification, StereoRectification):
+        raise ValueError(f"rectification must be a StereoRectification or None, got "
+                         f"{type(rectification).__name__}")
+    if rectification.size != (width, height):
+        raise ValueError("the rectification is for {}x{} frames, not {}x{}".format(
+            *rectification.size, width, height))
+
+
 def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelineParams(),
-                  *, threads: int | None = None) -> FrameStages:
+                  *, rectification: StereoRectification | None = None,
+                  threads: int | None = None) -> FrameStages:
     """Run one stereo frame through every pixel stage (§5.4 - §7.1).
 
     ``left_bytes`` and ``right_bytes`` are (H, 2W) uint8 YCbCr 4:2:2 byte
-    streams (Y0 Cb Y1 Cr ...), as the cameras deliver them.
+    streams (Y0 Cb Y1 Cr ...), as the cameras deliver them. ``rectification``
+    (:mod:`sim.model.rectify`) rectifies both cameras after the 4:4:4
+    conversion; None (the thesis' pipeline) leaves them as they are.
     """
     y_left, cb_left, cr_left = ycbcr422_to_444(left_bytes)
     y_right, _, _ = ycbcr422_to_444(right_bytes)
     if y_left.shape != y_right.shape:
         raise ValueError(f"left and right frames differ in size: {y_left.shape} vs {y_right.shape}")
+    if rectification is not None:
+        check_rectification(rectification, y_left.shape[1], y_left.shape[0])
+        (y_left, cb_left, cr_left), (y_right,) = rectify_pair(
+            (y_left, cb_left, cr_left), (y_right,), rectification)
     y_left, y_right = median3x3(y_left), median3x3(y_right)
     disparity = stereo_match(y_left, y_right, census_window=params.census_window,
                              hamming_window=params.hamming_window,
@@ -237,9 +259,12 @@ def track(centroids, areas, params: PipelineParams = PipelineParams()) -> Trajec
 def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
              keep: Callable[[int], bool] = lambda n: False,
              progress: Callable[[int, int], None] | None = None,
-             threads: int | None = None) -> tuple[Trajectory, dict[int, FrameStages]]:
-    """Process every frame of a clip; return the trajectory and the stages of
-    the frames for which ``keep(n)`` is true."""
+             threads: int | None = None,
+             rectification: StereoRectification | None = None,
+             ) -> tuple[Trajectory, dict[int, FrameStages]]:
+    """Process every frame of a clip (rectified with ``rectification`` if
+    given); return the trajectory and the stages of the frames for which
+    ``keep(n)`` is true."""
     frames = len(left_frames)
     if len(right_frames) != frames:
         raise ValueError(f"left has {frames} frames but right has {len(right_frames)}")
@@ -247,11 +272,13 @@ def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(
         raise ValueError("left_frames must hold at least one frame")
     height, width2 = np.shape(left_frames[0])[-2:]
     params.validate(width2 // 2, height)
+    check_rectification(rectification, width2 // 2, height)
     cents = np.zeros((frames, 2), np.int64)
     areas = np.zeros(frames, np.int64)
     kept: dict[int, FrameStages] = {}
     for n in range(frames):
-        stages = process_frame(left_frames[n], right_frames[n], params, threads=threads)
+        stages = process_frame(left_frames[n], right_frames[n], params,
+                               rectification=rectification, threads=threads)
         cents[n] = stages.centroid.x, stages.centroid.y
         areas[n] = stages.centroid.area
         if keep(n):

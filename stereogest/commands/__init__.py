@@ -21,6 +21,35 @@ def add_camera_options(parser, *, required: bool) -> None:
                         help="right camera, as --left")
 
 
+def add_calibration_options(parser) -> None:
+    """``--calibration`` and ``--interpolation``: rectify both cameras with the
+    maps of a calibration file (``stereogest calibrate``), as the hardware's
+    rectification stage does."""
+    parser.add_argument("--calibration", metavar="CALIB.json", default=None,
+                        help="rectify both cameras first with this calibration "
+                             "(stereogest calibrate); its image size must be the frames'")
+    parser.add_argument("--interpolation", choices=("bilinear", "nearest"),
+                        default="bilinear", help="pixel interpolation of the rectification")
+
+
+def load_rectification(args, width: int, height: int):
+    """The :class:`sim.model.rectify.StereoRectification` of ``--calibration``
+    for ``width`` x ``height`` frames, or None without the option; errors name
+    the option."""
+    if getattr(args, "calibration", None) is None:
+        return None
+    from sim.calibration import load_calibration, stereo_rectification
+    try:
+        calib = load_calibration(args.calibration)
+        return stereo_rectification(calib, width, height, interpolation=args.interpolation)
+    except FileNotFoundError:
+        raise ValueError(f"--calibration: {args.calibration} does not exist") from None
+    except IsADirectoryError:
+        raise ValueError(f"--calibration: {args.calibration} is a directory") from None
+    except ValueError as exc:
+        raise ValueError(f"--calibration: {exc}") from None
+
+
 def add_json_switch(parser, always: bool = False) -> None:
     """``--json``, the same switch on every command that prints a result: the
     result as one JSON document on the last line of stdout. ``always``: the

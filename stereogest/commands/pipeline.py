@@ -5,7 +5,8 @@ opening and centroid; per clip, moving average, gesture spotting and
 orientation symbols; then the board application's HMMs name the gesture.
 Writes OUTDIR/trajectory.csv and pictures of every stage for chosen frames. The
 spotting threshold Tm is scaled to the frame width and the hold set as in
-'stereogest demo' (PipelineParams.for_frame)."""
+'stereogest demo' (PipelineParams.for_frame). With --calibration both cameras
+are rectified first (hdl/rectify.py and its model)."""
 from __future__ import annotations
 
 import json
@@ -44,13 +45,15 @@ def add_arguments(p):
     p.add_argument("--json", action="store_true",
                    help="print the result (with 'recognised') as a JSON last line")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    from stereogest.commands import add_calibration_options
+    add_calibration_options(p)
 
 
 def run(args) -> int:
     from sim.clip import load_clip
     from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
-    from stereogest.commands import OutputDir
+    from stereogest.commands import OutputDir, load_rectification
     from sw_hps.hmm import load_models
 
     clip = load_clip(args.clip)
@@ -63,11 +66,12 @@ def run(args) -> int:
     params.validate(clip.width, clip.height)
     if args.threads is not None:
         check_int("--threads", args.threads, 1, 64)
+    rectification = load_rectification(args, clip.width, clip.height)
     with OutputDir(args.output, stale=STALE) as outdir:
-        return _run(args, clip, params, models, chosen, outdir)
+        return _run(args, clip, params, models, chosen, outdir, rectification)
 
 
-def _run(args, clip, params, models, chosen, outdir) -> int:
+def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
     from sim.model.pipeline import run_clip
     if not args.quiet:
         print(f"  spotting: Tm = {params.spot_threshold} px (thesis 30 at 640 wide, scaled to "
@@ -79,14 +83,16 @@ def _run(args, clip, params, models, chosen, outdir) -> int:
         params.validate(clip.left.shape[2] // 2, clip.left.shape[1])
         if not args.quiet:
             print("  building / running the Verilated pipeline ...", file=sys.stderr, flush=True)
-        trajectory, stats = run_clip_hardware(clip.left, clip.right, params)
+        trajectory, stats = run_clip_hardware(clip.left, clip.right, params,
+                                              rectification=rectification)
         kept = {}
         if not args.quiet:
             print(f"  {stats['cycles']} pipeline cycles, {stats['cycles_per_second']:.0f} "
                   f"cycles/s", file=sys.stderr, flush=True)
     else:
         trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
-                                    progress=progress_printer(args.quiet), threads=args.threads)
+                                    progress=progress_printer(args.quiet), threads=args.threads,
+                                    rectification=rectification)
     seconds = time.perf_counter() - start
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
     recognised, telegram = recognise(models, trajectory)

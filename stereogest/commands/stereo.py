@@ -3,14 +3,15 @@ best-of selectors, left-right check, median: thesis §6.2) and write it as a
 16-bit PNG whose value is the disparity in pixels (0 = invalid). The golden
 model computes it by default; --backend amaranth or verilator runs the
 hardware (hdl/stereo_matcher.py) in a simulator instead and writes the same
-PNG."""
+PNG. With --calibration an unrectified pair is rectified first (the golden
+model of the rectification stage, hdl/rectify.py)."""
 from __future__ import annotations
 
 import json
 import time
 from pathlib import Path
 
-from stereogest.commands import add_json_switch
+from stereogest.commands import add_calibration_options, add_json_switch
 
 NAME = "stereo"
 BACKENDS = ("model", "amaranth", "verilator")
@@ -51,13 +52,14 @@ def add_arguments(p):
                         f"{AMARANTH_MAX_PIXELS} pixels); verilator: the emitted Verilog "
                         "under Verilator (first use of a parameter set builds it, cached "
                         "under build/verilator/)")
+    add_calibration_options(p)
     add_json_switch(p, always=True)
 
 
 def run(args) -> int:
     from sim.images import read_grey, write_png
     from sim.model.stereo import check_stereo_params, stereo_match
-    from stereogest.commands import check_output_file
+    from stereogest.commands import check_output_file, load_rectification
 
     check_output_file(args.output)
     check_output_file(preview_path(args.output), "--output (its preview)")
@@ -71,7 +73,11 @@ def run(args) -> int:
                    max_disparity=args.max_disparity, lrcc_threshold=args.lrcc_threshold,
                    no_match_cost=args.no_match_cost)
     check_stereo_params(left.shape[1], left.shape[0], **matcher)     # before any work
+    rectification = load_rectification(args, left.shape[1], left.shape[0])
     start = time.perf_counter()
+    if rectification is not None:
+        from sim.model.rectify import rectify_pair
+        (left,), (right,) = rectify_pair((left,), (right,), rectification)
     if backend == "model":
         result = stereo_match(left, right, **matcher, prefilter_median=args.prefilter_median,
                               disparity_median=not args.no_disparity_median,
