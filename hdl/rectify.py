@@ -25,7 +25,7 @@ width + Hmax + 2 beats.
 from __future__ import annotations
 
 import numpy as np
-from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed
+from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -49,7 +49,9 @@ def ring_rows(max_shift_y: int) -> int:
 
 
 def rectify_timing(width: int, max_shift_x: int, max_shift_y: int) -> StageTiming:
-    """Look-ahead (Vmax + 1) * width + Hmax + 2 beats; :attr:`Rectifier.cycles`."""
+    """Look-ahead (Vmax + 1) * width + Hmax + 2 beats; :attr:`Rectifier.cycles`
+    (16: every memory read and every multiplier has a register stage of its
+    own, for 100 MHz routed on an ECP5)."""
     return StageTiming(lag=(max_shift_y + 1) * width + max_shift_x + 2,
                        cycles=Rectifier.cycles)
 
@@ -59,7 +61,7 @@ class Rectifier(wiring.Component):
 
     Parameters
     ----------
-    width, height : frame size (width even, in [max(8, 2 Hmax + 8), 4096])
+    width, height : frame size (width even, in [max(8, 2 Hmax + 12), 4096])
     grid : sim.model.rectify.RectifyGrid
         The camera's compressed map, for this frame size.
     lanes : int in [1, 4]
@@ -84,7 +86,7 @@ class Rectifier(wiring.Component):
         ``row buffers`` (rows * width * lanes * 8), ``map grid`` and ``map line``.
     """
 
-    cycles = 8
+    cycles = 16
 
     def __init__(self, width: int, height: int, grid: RectifyGrid, *, lanes: int = 1,
                  interpolation: str = "bilinear", max_shift_x: int | None = None,
@@ -96,8 +98,10 @@ class Rectifier(wiring.Component):
                                      else max_shift_y, need_y, MAX_SHIFT_Y)
         self.max_shift_x = check_int("max_shift_x", need_x if max_shift_x is None
                                      else max_shift_x, need_x, 4096)
+        # the ring's writes trail the beat by 2 cycles and its reads by 9: a row
+        # must outlast them (width >= Hmax + 10; 2 Hmax + 12 keeps a margin)
         self.width, self.height = check_geometry(width, height,
-                                                 min_width=2 * self.max_shift_x + 8)
+                                                 min_width=2 * self.max_shift_x + 12)
         if self.width % 2:
             raise ValueError(f"width must be even (the banks split columns by parity), "
                              f"got {self.width}")
@@ -109,6 +113,10 @@ class Rectifier(wiring.Component):
             raise ValueError(f"interpolation must be one of {', '.join(INTERPOLATIONS)}, "
                              f"got {interpolation!r}")
         self.grid, self.interpolation = grid, interpolation
+        if self.width - grid.dx.shape[1] < 6:
+            # a row's map line is written while the row before is output
+            raise ValueError(f"grid_step {grid.grid_step} is too fine for width {self.width}: "
+                             f"the grid's {grid.dx.shape[1]} columns need width - 6 beats")
         self.lag = rectify_timing(self.width, self.max_shift_x, self.max_shift_y).lag
         self.rows = ring_rows(self.max_shift_y)
         self.grid_rows, self.grid_cols = grid.dx.shape
@@ -144,11 +152,15 @@ class Rectifier(wiring.Component):
         beat = self.i_stream.valid
         p = self.i_stream.payload
 
+        def reg(value, name, cycles=1):
+            return delay(m, value, cycles, name)
+
         pos_in = RasterPosition(w, h, 0, "in").attach(m, beat, p.first)
         out = RasterPosition(w, h, self.lag, "out").attach(m, beat, p.first)
         ahead = RasterPosition(w, h, self.lag - w, "next").attach(m, beat, p.first)
 
         # --- ring buffer: four banks by (row parity, column parity) ---------------------
+        # written two cycles after the beat (the address is a product and a sum)
         slot_bits = bits_for(rows - 1)
         slot_in = Signal(slot_bits)                   # input row mod rows
         slot_in_cur = Mux(p.first, 0, slot_in)
@@ -157,96 +169,112 @@ class Rectifier(wiring.Component):
         with m.Elif(beat):
             m.d.sync += slot_in.eq(slot_in_cur)
         depth = rows // 2 * half_w
+        w_half_1 = reg(slot_in_cur >> 1, "wslot")
+        w_bank_1 = reg(Cat(pos_in.x[0], slot_in_cur[0]), "wbank")
+        w_col_2 = reg(pos_in.x >> 1, "wcol", 2)
+        w_row_2 = Signal(range(depth + 1), name="wrow")
+        m.d.sync += w_row_2.eq(w_half_1 * half_w)
+        w_bank_2 = reg(w_bank_1, "wbank2")
+        w_en_2 = reg(beat, "wen", 2)
+        w_data_2 = reg(p.pixel.as_value(), "wdata", 2)
+        depth_bits = (depth - 1).bit_length()
         banks = []
         for b in range(4):
             bank = memory.Memory(shape=8 * self.lanes, depth=depth, init=[])
             m.submodules[f"bank_{b}"] = bank
             wr = bank.write_port()
-            m.d.comb += [
-                wr.addr.eq((slot_in_cur >> 1) * half_w + (pos_in.x >> 1)),
-                wr.data.eq(p.pixel.as_value()),
-                wr.en.eq(beat & (Cat(pos_in.x[0], slot_in_cur[0]) == b)),
-            ]
+            m.d.comb += [wr.addr.eq((w_row_2 + w_col_2)[:depth_bits]), wr.data.eq(w_data_2),
+                         wr.en.eq(w_en_2 & (w_bank_2 == b))]
             banks.append(bank.read_port(transparent_for=()))
 
-        # --- map: grid ROM, vertical interpolation one row ahead ------------------------
+        # --- map: vertical interpolation one row ahead ----------------------------------
         words = [(int(dy) & ((1 << gb) - 1)) << gb | (int(dx) & ((1 << gb) - 1))
                  for dx, dy in zip(grid.dx.ravel(), grid.dy.ravel())]
         rom = memory.Memory(shape=2 * gb, depth=len(words), init=words)
         m.submodules.grid = rom
-        top, bottom = rom.read_port(domain="sync"), rom.read_port(domain="sync")
-        gy_next = (ahead.y >> s)[:bits_for(self.grid_rows)]
-        fy_next = ahead.y[:s] if s else Const(0, 1)
-        k = ahead.x
-        in_rows = (ahead.y >= 0) & (ahead.y < h)
-        base = Signal(range(self.grid_rows * self.grid_cols + 1))
-        m.d.comb += base.eq(gy_next * self.grid_cols + k)
-        in_grid = in_rows & (k < self.grid_cols)
-        m.d.comb += [top.addr.eq(Mux(in_grid, base, 0)),
-                     bottom.addr.eq(Mux(in_grid, base + self.grid_cols, 0))]
-        write_v = delay(m, beat & in_grid, 1, "vwrite")
-        k_1 = delay(m, k, 1, "vk")
-        fy_1 = delay(m, fy_next, 1, "vfy")
-        parity_1 = delay(m, ahead.y[0], 1, "vrow")
+        top, bottom = rom.read_port(), rom.read_port()
+        cols = self.grid_cols
+        in_grid = beat & (ahead.y >= 0) & (ahead.y < h) & (ahead.x < cols)
+        gy_1 = reg((ahead.y >> s)[:bits_for(self.grid_rows)], "vgy")
+        k_1, fy_1 = reg(ahead.x[:bits_for(cols)], "vk"), reg(ahead.y[:s], "vfy")
+        parity_1, ok_1 = reg(ahead.y[0], "vrow"), reg(in_grid, "vok")
+        base_2 = Signal(range(self.grid_rows * cols + 1), name="vbase")
+        m.d.sync += base_2.eq(gy_1 * cols)
+        k_2, fy_2, parity_2, ok_2 = (reg(v, n) for v, n in ((k_1, "vk2"), (fy_1, "vfy2"),
+                                                             (parity_1, "vrow2"), (ok_1, "vok2")))
+        m.d.comb += [top.addr.eq(Mux(ok_2, base_2 + k_2, 0)),
+                     bottom.addr.eq(Mux(ok_2, base_2 + k_2 + cols, 0))]
+        # the grid words registered first: the ROM spans several blocks, whose
+        # outputs are multiplexed
+        top_4, bottom_4 = reg(top.data, "vtop"), reg(bottom.data, "vbottom")
+        fy_4 = reg(fy_2, "vfy4", 2)
         line_shape = data.StructLayout({"dx": signed(lb), "dy": signed(lb)})
+        products = []
+        for lo in (0, gb):
+            g0 = top_4[lo:lo + gb].as_signed()
+            g1 = bottom_4[lo:lo + gb].as_signed()
+            pair = (Signal(signed(lb), name=f"vtop_{lo}"), Signal(signed(lb), name=f"vbot_{lo}"))
+            m.d.sync += [pair[0].eq((step - fy_4) * g0), pair[1].eq(fy_4 * g1)]
+            products.append(pair)
         v_new = Signal(line_shape)
-        for axis, lo in (("dx", 0), ("dy", gb)):
-            g0 = top.data[lo:lo + gb].as_signed()
-            g1 = bottom.data[lo:lo + gb].as_signed()
-            m.d.sync += getattr(v_new, axis).eq((step - fy_1) * g0 + fy_1 * g1)
-        write_v2 = delay(m, write_v, 1, "vwrite2")
-        k_2 = delay(m, k_1, 1, "vk2")
-        parity_2 = delay(m, parity_1, 1, "vrow2")
+        m.d.sync += [v_new.dx.eq(products[0][0] + products[0][1]),
+                     v_new.dy.eq(products[1][0] + products[1][1])]
+        k_6, parity_6, ok_6 = reg(k_2, "vk6", 4), reg(parity_2, "vrow6", 4), reg(ok_2, "vok6", 4)
         lines = []
         col_bits = self.line_col_bits
         for odd in (0, 1):
             line = memory.Memory(shape=line_shape, depth=2 << col_bits, init=[])
             m.submodules[f"line_{'odd' if odd else 'even'}"] = line
             wr = line.write_port()
-            m.d.comb += [wr.addr.eq(Cat(k_2[1:1 + col_bits], parity_2)),
-                         wr.data.eq(v_new), wr.en.eq(write_v2 & (k_2[0] == odd))]
+            m.d.comb += [wr.addr.eq(Cat(k_6[1:1 + col_bits], parity_6)),
+                         wr.data.eq(v_new), wr.en.eq(ok_6 & (k_6[0] == odd))]
             lines.append(line.read_port(transparent_for=()))
 
-        # --- per output pixel --------------------------------------------------------
-        # c0 (the beat): the pair V(gx), V(gx + 1) is read
-        gx = out.x >> s
-        even_addr = (gx + 1) >> 1
-        odd_addr = gx >> 1
-        row_bit = out.y[0]
-        for line, addr in ((lines[0], even_addr), (lines[1], odd_addr)):
-            m.d.comb += line.addr.eq(Cat(addr[:col_bits], row_bit))
-        x_1 = delay(m, out.x, 1, "x")
-        y_1 = delay(m, out.y, 1, "y")
-        # c1: blend V(gx), V(gx + 1) horizontally
-        gx_odd_1 = (x_1 >> s)[0]
-        fx_1 = x_1[:s] if s else Const(0, 1)
-        v0 = Mux(gx_odd_1, lines[1].data, lines[0].data)
-        v1 = Mux(gx_odd_1, lines[0].data, lines[1].data)
-        v0, v1 = data.View(line_shape, v0), data.View(line_shape, v1)
+        # --- per output pixel, one register stage after another (16 in all) -----------
+        x_1, y_1 = reg(out.x, "x1"), reg(out.y, "y1")
+        gx_1 = x_1 >> s
+        for line, addr in ((lines[0], (gx_1 + 1) >> 1), (lines[1], gx_1 >> 1)):
+            m.d.comb += line.addr.eq(Cat(addr[:col_bits], reg(out.y[0], "row1")))
+        # V(gx), V(gx + 1) out of the line memories (the even one holds V(gx) when
+        # gx is even, V(gx + 1) when odd), each times its weight: the weights swap,
+        # not the words, so the memories feed the multipliers directly
+        # (registered once more: a memory block's output is slow to reach a multiplier)
+        x_w, y_w = reg(x_1, "x2", 2), reg(y_1, "y2", 2)
+        fx_1 = x_1[:s]
+        swap_1 = gx_1[0]
+        w_even, w_odd = Signal(s + 1, name="w_even"), Signal(s + 1, name="w_odd")
+        m.d.sync += [w_even.eq(Mux(swap_1, fx_1, step - fx_1)),
+                     w_odd.eq(Mux(swap_1, step - fx_1, fx_1))]
+        w_even, w_odd = reg(w_even, "w_even3"), reg(w_odd, "w_odd3")
+        even = data.View(line_shape, reg(lines[0].data.as_value(), "even3"))
+        odd = data.View(line_shape, reg(lines[1].data.as_value(), "odd3"))
         sum_bits = lb + s + 1
-        sums = {}
+        blend = {}
         for axis in ("dx", "dy"):
-            acc = Signal(signed(sum_bits), name=f"blend_{axis}")
-            m.d.sync += acc.eq((step - fx_1) * getattr(v0, axis) + fx_1 * getattr(v1, axis))
-            sums[axis] = acc
-        x_2, y_2 = delay(m, x_1, 1, "x2"), delay(m, y_1, 1, "y2")
-        # c2: source position sx, sy (F fraction bits); nearest rounds it here
+            a, b = Signal(signed(sum_bits), name=f"h0_{axis}"), Signal(signed(sum_bits),
+                                                                     name=f"h1_{axis}")
+            m.d.sync += [a.eq(w_even * getattr(even, axis)),
+                         b.eq(w_odd * getattr(odd, axis))]
+            total = Signal(signed(sum_bits + 1), name=f"h_{axis}")
+            m.d.sync += total.eq(a + b)
+            blend[axis] = total
+        # the source position, rounded (and, for nearest, to whole pixels) in one add:
+        # ((base << F + 2s) + half + [2^(F-1) << 2s] + sum) >> 2s
         coord_bits = max(bits_for(w), bits_for(h + OVERRUN_ROWS)) + f + 2
+        round_const = (1 << (2 * s - 1)) + ((1 << (f - 1 + 2 * s))
+                                            if self.interpolation == "nearest" else 0)
         src = {}
-        for axis, base_pos in (("dx", x_2), ("dy", y_2)):
-            disp = (sums[axis] + (1 << (2 * s - 1) if s else 0)) >> (2 * s)
-            pos = Signal(signed(coord_bits), name=f"src_{axis}")
-            value = (base_pos << f) + disp
+        for axis, base in (("dx", reg(x_w, "x4", 2)), ("dy", reg(y_w, "y4", 2))):
+            wide = Signal(signed(coord_bits + 2 * s), name=f"src_{axis}_wide")
+            m.d.comb += wide.eq(blend[axis] + (base.as_signed() if axis == "dy" else base)
+                                * (1 << (f + 2 * s)) + round_const)
+            value = Signal(signed(coord_bits), name=f"src_{axis}")
+            shifted = wide >> (2 * s)
             if self.interpolation == "nearest":
-                value = ((value + (1 << (f - 1))) >> f) << f
-            m.d.sync += pos.eq(value)
-            src[axis] = pos
-        y_3 = delay(m, y_2, 1, "y3")
-        # c3: the four taps' banks, rows, columns and addresses
-        sx, sy = src["dx"], src["dy"]
-        ix, iy = sx >> f, sy >> f
-        ax, ay = sx[:f], sy[:f]
-        # the output row's ring slot, counted along (y mod rows, y may be negative)
+                shifted = (shifted >> f) << f
+            m.d.sync += value.eq(shifted)
+            src[axis] = value
+        y_src = reg(y_w, "y5", 3)
         slot_out = Signal(slot_bits)
         first_slot = (self.lag and (-(self.lag // w) - (1 if self.lag % w else 0))) % rows
         with m.If(beat):
@@ -255,67 +283,83 @@ class Rectifier(wiring.Component):
                                         else (first_slot + 1) % rows)
             with m.Elif(out.x == w - 1):
                 m.d.sync += slot_out.eq(Mux(slot_out == rows - 1, 0, slot_out + 1))
-        slot_cur = Mux(p.first, first_slot, slot_out)
-        slot_3 = delay(m, slot_cur, 3, "slot")
-        dyi = Signal(signed(coord_bits), name="row_offset")
-        m.d.comb += dyi.eq(iy - y_3)
-        slot_top = Signal(slot_bits + 2)
-        wrapped = slot_3 + dyi
-        m.d.comb += slot_top.eq(Mux(wrapped < 0, wrapped + rows,
-                                    Mux(wrapped >= rows, wrapped - rows, wrapped)))
-        slot_bottom = Mux(slot_top == rows - 1, 0, slot_top + 1)
-        col_addr_bits = bits_for(half_w)
-        addr_regs, inside_regs = [], []
+        slot_r = reg(Mux(p.first, first_slot, slot_out), "slot7", 7)
+        # whole and fraction parts, the row offset, the neighbours
+        sx, sy = src["dx"], src["dy"]
+        ix, iy = sx >> f, sy >> f
+        sbits = len(ix)
+        ix_r, iy_r = reg(ix, "ix6"), reg(iy, "iy6")
+        ix1_r = Signal(signed(sbits + 1), name="ix1_r")
+        iy1_r = Signal(signed(sbits + 1), name="iy1_r")
+        dyi_r = Signal(signed(sbits + 1), name="dyi_r")
+        m.d.sync += [ix1_r.eq(ix + 1), iy1_r.eq(iy + 1), dyi_r.eq(iy - y_src)]
+        ax_r, ay_r = reg(sx[:f], "ax6"), reg(sy[:f], "ay6")
+        # the top row's slot (three sums, one chosen); each bank's row,
+        # column and whether it lies inside the frame
+        wrapped = slot_r + dyi_r
+        slot_top = Signal(slot_bits, name="slot_top7")
+        m.d.sync += slot_top.eq(Mux(wrapped < 0, wrapped + rows,
+                                      Mux(wrapped >= rows, wrapped - rows, wrapped)))
+        col_half, inside, same_row = [], [], []
         for b in range(4):
             px, py = b & 1, b >> 1
-            col = Mux(ix[0] == px, ix, ix + 1)
-            row = Mux(iy[0] == py, iy, iy + 1)
-            slot = Mux(iy[0] == py, slot_top, slot_bottom)
-            inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
-            addr = Signal(range(depth), name=f"addr_{b}")
-            m.d.sync += addr.eq(Mux(inside, (slot[:slot_bits] >> 1) * half_w
-                                    + col[1:col_addr_bits + 1], 0))
-            ok = Signal(name=f"inside_{b}")
-            m.d.sync += ok.eq(inside)
-            addr_regs.append(addr)
-            inside_regs.append(ok)
-        ix_odd_4 = delay(m, ix[0], 1, "ixodd")
-        iy_odd_4 = delay(m, iy[0], 1, "iyodd")
-        ax_4, ay_4 = delay(m, ax, 1, "ax"), delay(m, ay, 1, "ay")
-        # c4: the banks read
-        for bank, addr in zip(banks, addr_regs):
-            m.d.comb += bank.addr.eq(addr)
-        inside_5 = [delay(m, ok, 1, f"ok5_{b}") for b, ok in enumerate(inside_regs)]
-        ix_odd_5, iy_odd_5 = delay(m, ix_odd_4, 1, "ixodd5"), delay(m, iy_odd_4, 1, "iyodd5")
-        ax_5, ay_5 = delay(m, ax_4, 1, "ax5"), delay(m, ay_4, 1, "ay5")
-        # c5: each bank's word to its tap (00, 10, 01, 11 = x, y offsets), 0 outside
+            col = Mux(ix_r[0] == px, ix_r, ix1_r)
+            row = Mux(iy_r[0] == py, iy_r, iy1_r)
+            ok = Signal(name=f"inside7_{b}")
+            m.d.sync += ok.eq((col >= 0) & (col < w) & (row >= 0) & (row < h))
+            half = Signal(range(half_w), name=f"col7_{b}")
+            m.d.sync += half.eq(col[1:])
+            same = Signal(name=f"same7_{b}")
+            m.d.sync += same.eq(iy_r[0] == py)
+            col_half.append(half)
+            inside.append(ok)
+            same_row.append(same)
+        # each bank's slot; its row's base address; the read
+        slot_bottom = Mux(slot_top == rows - 1, 0, slot_top + 1)
+        for b in range(4):
+            slot_bank = Signal(slot_bits, name=f"slot8_{b}")
+            m.d.sync += slot_bank.eq(Mux(inside[b], Mux(same_row[b], slot_top, slot_bottom),
+                                      0))
+            row_base = Signal(range(depth + 1), name=f"rowbase9_{b}")
+            m.d.sync += row_base.eq((slot_bank >> 1) * half_w)
+            col_bank = reg(Mux(inside[b], col_half[b], 0), f"col9_{b}", 2)
+            m.d.comb += banks[b].addr.eq((row_base + col_bank)[:depth_bits])
+        # the words registered (each bank spans several memory blocks); then the
+        # four words to their taps (00, 10, 01, 11: x, y offsets), 0
+        # outside; the weights
+        words = [reg(bank.data, f"word11_{b}") for b, bank in enumerate(banks)]
+        inside_late = [reg(ok, f"inside11_{b}", 4) for b, ok in enumerate(inside)]
+        ix_odd, iy_odd = reg(ix_r[0], "ixodd", 5), reg(iy_r[0], "iyodd", 5)
+        ax_late, ay_late = reg(ax_r, "ax11", 5), reg(ay_r, "ay11", 5)
         one = 1 << f
-        tap_regs = []
+        taps = []
         for dx_, dy_ in ((0, 0), (1, 0), (0, 1), (1, 1)):
-            bx = ix_odd_5 ^ dx_
-            by = iy_odd_5 ^ dy_
-            choice = Cat(bx, by)
             word = Signal(8 * self.lanes, name=f"tap_{dx_}{dy_}")
-            with m.Switch(choice):
+            with m.Switch(Cat(ix_odd ^ dx_, iy_odd ^ dy_)):
                 for b in range(4):
                     with m.Case(b):
-                        m.d.sync += word.eq(Mux(inside_5[b], banks[b].data, 0))
-            tap_regs.append(word)
-        wx = Signal(f + 1, name="wx")
-        wy = Signal(f + 1, name="wy")
-        ax_6, ay_6 = delay(m, ax_5, 1, "ax6"), delay(m, ay_5, 1, "ay6")
-        m.d.comb += [wx.eq(ax_6), wy.eq(ay_6)]
-        # c6: the weighted sum per lane; c7: rounded
-        weights = [(one - wx) * (one - wy), wx * (one - wy), (one - wx) * wy, wx * wy]
+                        m.d.sync += word.eq(Mux(inside_late[b], words[b], 0))
+            taps.append(word)
+        weights = []
+        for k, value in enumerate(((one - ax_late) * (one - ay_late), ax_late * (one - ay_late),
+                                   (one - ax_late) * ay_late, ax_late * ay_late)):
+            weight = Signal(2 * f + 1, name=f"weight_{k}")
+            m.d.sync += weight.eq(value)
+            weights.append(weight)
+        # products; two sums; the rounded total
         outs = []
         for lane in range(self.lanes):
-            total = Signal(8 + 2 * f + 2, name=f"blend_{lane}")
-            m.d.sync += total.eq(sum(wt * tap[8 * lane:8 * lane + 8]
-                                     for wt, tap in zip(weights, tap_regs))
-                                 + (1 << (2 * f - 1)))
-            pixel = Signal(8, name=f"pixel_{lane}")
-            m.d.sync += pixel.eq(total >> (2 * f))
-            outs.append(pixel)
+            prods = []
+            for k, (weight, tap) in enumerate(zip(weights, taps)):
+                prod = Signal(8 + 2 * f + 1, name=f"prod_{lane}_{k}")
+                m.d.sync += prod.eq(weight * tap[8 * lane:8 * lane + 8])
+                prods.append(prod)
+            pair_a = Signal(8 + 2 * f + 2, name=f"pair_a_{lane}")
+            pair_b = Signal(8 + 2 * f + 2, name=f"pair_b_{lane}")
+            m.d.sync += [pair_a.eq(prods[0] + prods[1]), pair_b.eq(prods[2] + prods[3])]
+            total = Signal(8 + 2 * f + 2, name=f"total_{lane}")
+            m.d.sync += total.eq(pair_a + pair_b + (1 << (2 * f - 1)))
+            outs.append(total[2 * f:2 * f + 8])
         o = self.o_stream.payload
         m.d.comb += [
             self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),

@@ -49,9 +49,11 @@ def memory_bits(rtlil_text: str) -> dict:
     return bits
 
 
-def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
-    """Synthesize the core at ``width`` x ``height`` (thesis parameters) and
-    return the JSON-ready report: ours, thesis Table 23 and the device."""
+def estimate(width: int = 640, height: int = 480, progress=None, rectification=None) -> dict:
+    """Synthesize the core at ``width`` x ``height`` (thesis parameters; with
+    ``rectification``, :class:`sim.model.rectify.StereoRectification`, its
+    rectification stages) and return the JSON-ready report: ours, thesis Table
+    23 and the device."""
     from hdl.synthesis import find_yosys, synthesize
 
     from amaranth.back import rtlil
@@ -60,7 +62,7 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
     from .core import CORE_NAME, StereogestCore
     yosys = find_yosys()
     start = time.perf_counter()
-    core = StereogestCore(width, height)
+    core = StereogestCore(width, height, rectification=rectification)
     if progress:
         progress("counting memory bits ...")
     mem = memory_bits(rtlil.convert(core, name=CORE_NAME))
@@ -68,7 +70,7 @@ def estimate(width: int = 640, height: int = 480, progress=None) -> dict:
     # (a wasm trap after 12 minutes, the 4 GB of wasm32 memory most likely).
     # Every domain on one clock: yosys maps dual-clock RAMs (frame buffer, camera
     # FIFOs) to logic (module docstring); Quartus maps them to M10K.
-    core = StereogestCore(width, height)
+    core = StereogestCore(width, height, rectification=rectification)
     parts = {
         "pipeline": DomainRenamer({"cam_left": "sync", "cam_right": "sync"})(core.pipeline),
         "frame_buffer": DomainRenamer({"vga": "sync"})(core.frame_buffer),

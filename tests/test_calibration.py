@@ -8,7 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from sim.calibration import (StereoRig, calibrate, find_corners, load_calibration,
+from sim.calibration import (StereoRig, calibrate, camera_frames, find_corners,
+                             load_calibration,
                              misalign_frames, parse_pattern, render_chessboard_pairs,
                              rig_calibration, save_calibration, stereo_rectification)
 from sim.model.rectify import homography_maps, misalignment, rectify
@@ -126,3 +127,44 @@ def test_cli_chessboards_calibrate_and_stereo(tmp_path, capsys):
     assert cli.main(["stereo", str(folder / "left_00.png"), str(folder / "right_00.png"),
                      "-o", str(tmp_path / "d.png"), "--calibration", str(tmp_path / "c.json"),
                      "--max-disparity", "64", "--hamming-window", "9"]) == 0
+
+
+def test_calibrate_reads_a_clip_of_chessboard_pairs(pairs, tmp_path, capsys):
+    """`stereogest clip` records the pairs as a clip; calibrate takes it."""
+    from sim.clip import Clip, save_clip
+    from sim.model.ycbcr import ycbcr444_to_422
+    grey = np.full_like(pairs[0][0], 128)
+
+    def frames(side):
+        return np.stack([ycbcr444_to_422(p[side], grey, grey) for p in pairs[:6]])
+
+    save_clip(Clip(fps=5, left=frames(0), right=frames(1)), tmp_path / "boards")
+    assert cli.main(["calibrate", str(tmp_path / "boards"), "-o", str(tmp_path / "c.json")]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["pairs"] == report["offered"] == 6 and report["rms_px"] < 0.3
+
+
+def test_pipeline_command_rectifies_with_a_calibration(tmp_path, capsys):
+    """`stereogest pipeline --calibration`: a clip seen through a small rig,
+    rectified with its calibration, gives the trajectory of the model run with
+    that rectification (and not the unrectified one)."""
+    from sim.clip import Clip, save_clip
+    from sim.model.pipeline import PipelineParams, run_clip
+    from sim.render import render_clip
+    rig = StereoRig().resized(320, 240)
+    calib = rig_calibration(rig)
+    save_calibration(calib, tmp_path / "c.json")
+    clip = render_clip("stop", 3, 320, 240, n_pre_rest=1, n_motion=2, n_post_rest=0)
+    left, right = camera_frames(clip.left, calib, "left"), camera_frames(clip.right, calib, "right")
+    save_clip(Clip(fps=clip.fps, left=left, right=right), tmp_path / "clip")
+    assert cli.main(["pipeline", str(tmp_path / "clip"), "-o", str(tmp_path / "out"), "--quiet",
+                     "--calibration", str(tmp_path / "c.json")]) == 0
+    rows = (tmp_path / "out" / "trajectory.csv").read_text().splitlines()
+    params = PipelineParams.for_frame(320)
+    ours, _ = run_clip(left, right, params, rectification=stereo_rectification(calib))
+    plain, _ = run_clip(left, right, params)
+    scale = 1 << params.frac_bits
+    expected = [f"{n},{x / scale:.4f},{y / scale:.4f},{int(f)},{int(sym)}" for n, ((x, y), f, sym)
+                in enumerate(zip(ours.smoothed, ours.flag, ours.symbol))]
+    assert rows[1:] == expected
+    assert (ours.area > 0).all() and not np.array_equal(ours.centroid, plain.centroid)

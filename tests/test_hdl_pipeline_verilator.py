@@ -165,7 +165,7 @@ def test_stage_select_video_shows_the_golden_model_stage(stage):
 
 def test_rectified_vga_frames_equal_golden_model(vga_clip):
     """The Rectifier stages in the whole pipeline's Verilog (the default rig's
-    maps, sim.calibration.StereoRig: row buffers of 2 * 17 + 4 rows) on full
+    maps, sim.calibration.StereoRig: row buffers of 2 * 14 + 4 rows) on full
     640x480 frames from a misaligned rig, with a small matcher: every record,
     and the rectified left picture of every frame (video output) pixel for
     pixel the golden model's."""
@@ -177,7 +177,7 @@ def test_rectified_vga_frames_equal_golden_model(vga_clip):
     from verif.clocks import camera_waveforms
     clip, _ = vga_clip
     rect = stereo_rectification(rig_calibration(StereoRig()))
-    assert rect.max_shift[1] == 17
+    assert rect.max_shift[1] == 14
     lefts = misalign_frames(clip.left, misalignment(640, 480, roll=0.5, shift_y=1.0))
     rights = misalign_frames(clip.right, misalignment(640, 480, roll=-0.4, shift_y=-0.8))
     flush = pipeline_timing(640, 480, SMALL, rect).flush

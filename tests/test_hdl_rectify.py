@@ -65,6 +65,8 @@ def test_timing_and_memory():
     (dict(interpolation="cubic"), "interpolation"),
     (dict(max_shift_y=MAX_SHIFT_Y + 1), "max_shift_y"),
     (dict(max_shift_x=-1), "max_shift_x"),
+    (dict(width=12, grid=identity_grid(12, 8, grid_step=2)), "grid_step 2 is too fine"),
+    (dict(max_shift_x=3), r"width must be in \[18, 4096\]"),
 ])
 def test_bad_parameters_name_themselves(kwargs, name):
     args = dict(width=16, height=8, grid=identity_grid(16, 8))

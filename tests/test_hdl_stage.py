@@ -11,6 +11,7 @@ from hdl.lrcc import LeftRightCheck, lrcc_timing
 from hdl.median3x3 import Median3x3, median_timing
 from hdl.morphology import BinaryMorphology, morphology_timing
 from hdl.opening import Opening, opening_timing
+from hdl.rectify import Rectifier, rectify_timing
 from hdl.segmentation import HandSegmentation
 from hdl.selectors import DisparitySelectors, selectors_timing
 from hdl.shd import SumOfHammingDistances, shd_timing
@@ -20,6 +21,7 @@ from hdl.window import WindowGenerator, window_timing
 from hdl.window_sum import WindowSum, window_sum_timing
 from hdl.ycbcr422 import YCbCr422To444
 from sim.model.census import census_bits
+from sim.model.rectify import identity_grid
 
 W, H = 48, 12
 CROSS5 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
@@ -43,6 +45,8 @@ CASES = [
     (lambda: Opening(width=W, height=H, element=CROSS5), opening_timing(W, CROSS5)),
     (lambda: StereoMatcher(width=W, height=H, census_window=3, hamming_window=5,
                            max_disparity=8), matcher_timing(W, 3, 5, 8)),
+    (lambda: Rectifier(width=W, height=H, grid=identity_grid(W, H), lanes=3, max_shift_x=4,
+                       max_shift_y=2), rectify_timing(W, 4, 2)),
     (lambda: StereoMatcher(width=W, height=H, census_window=3, hamming_window=5,
                            max_disparity=8, disparity_median=False),
      matcher_timing(W, 3, 5, 8, disparity_median=False)),

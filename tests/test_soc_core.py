@@ -45,3 +45,15 @@ def test_core_rejects_bad_parameters(kwargs, word):
     args.update(kwargs)
     with pytest.raises(ValueError, match=word):
         StereogestCore(**args)
+
+
+def test_core_with_rectification_has_its_stages_and_the_same_ports():
+    """`stereogest generate --calibration`: the core builds both rectification
+    stages with the calibration's maps; its ports stay those of the bundle."""
+    from tests.test_hdl_gesture_pipeline import small_rectification
+    plain = StereogestCore(W, H, SMALL)
+    core = StereogestCore(W, H, SMALL, rectification=small_rectification(W, H))
+    text = emit_core_verilog(core)
+    assert "rectify_left" in text and "rectify_right" in text
+    assert "rectify_left" not in emit_core_verilog(plain)
+    assert core_ports(core) == core_ports(plain)

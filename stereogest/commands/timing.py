@@ -10,11 +10,8 @@ matcher and the pipeline take tens of minutes each (hdl/README.md)."""
 from __future__ import annotations
 
 import json
-import os
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 from stereogest.commands import DEFAULT_SEED, frame_size_help
 
@@ -56,17 +53,8 @@ def add_arguments(p):
                    help="keep each run's files (RTLIL, netlist, LPF, nextpnr log and report) "
                         "in DIR/<block>")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.resolve().parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    from stereogest.commands import add_calibration_options
+    add_calibration_options(p)
 
 
 def table(results: list) -> str:
@@ -95,7 +83,7 @@ def run(args) -> int:
     from hdl.synthesis import find_yosys
     from sim.model.pipeline import PipelineParams
     from soc.clocks import PCLK_HZ, SYNC_HZ
-    from stereogest.commands import check_output_dir, check_output_file
+    from stereogest.commands import check_output_dir, check_output_file, load_rectification
 
     if args.block not in _choices():
         raise ValueError(f"--block must be one of {', '.join(_choices())}, got {args.block!r}")
@@ -125,6 +113,7 @@ def run(args) -> int:
         args.output, args.json, output_option = args.json, False, "--json"
     json_out = None if args.output is None else check_output_file(args.output, output_option)
     keep = None if args.keep is None else check_output_dir(args.keep, "--keep", parents=False)
+    rectification = load_rectification(args, args.width, args.height)
     find_yosys()
     find_nextpnr()
 
@@ -138,7 +127,8 @@ def run(args) -> int:
     start = time.perf_counter()
     for block in blocks:
         dut, clocks, shell = timing_design(block, args.width, args.height, params,
-                                           sync_hz=SYNC_HZ, pclk_hz=PCLK_HZ)
+                                           sync_hz=SYNC_HZ, pclk_hz=PCLK_HZ,
+                                           rectification=rectification)
         result = place_and_route(dut, block, clocks=clocks, shell=shell, seed=args.seed,
                                  router=args.router, timeout=args.timeout,
                                  keep=keep / block if keep else None, progress=say)
@@ -156,7 +146,8 @@ def run(args) -> int:
     }
     print(table(results))
     if json_out is not None:
-        _write_atomic(json_out, json.dumps(report, indent=2) + "\n")
+        from sim.atomic import write_text_atomic
+        write_text_atomic(json_out, json.dumps(report, indent=2) + "\n")
     if args.json:
         print(json.dumps(report))
     return 0 if report["passed"] else 1
