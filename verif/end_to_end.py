@@ -120,7 +120,8 @@ def hold_still(left_frames, right_frames, trajectory: Trajectory, params: Pipeli
 def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
                    *, stage: str = "opening", clocks: Clocks = Clocks(),
-                   poll_interval: float = 0.005, progress=None, exe=None) -> EndToEndResult:
+                   poll_interval: float = 0.005, progress=None, exe=None,
+                   rectification=None) -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
     Parameters
@@ -138,6 +139,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         ``progress(text)`` for progress lines.
     exe : path, optional
         A prebuilt harness (:func:`verif.system.build_system`).
+    rectification : sim.model.rectify.StereoRectification, optional
+        The core rectifies with these maps (as the golden model did).
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
     from hdl.lrcc import disparity_bits
@@ -153,13 +156,13 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
     frames = len(left_frames)
     height, width = np.shape(left_frames)[1], np.shape(left_frames)[2] // 2
-    timing = pipeline_timing(width, height, params)
+    timing = pipeline_timing(width, height, params, rectification)
     drain = timing.record_cycles + 8 * width
     expected = [(int(x), int(y)) for (x, y), f in zip(trajectory.smoothed, trajectory.flag) if f]
     start = time.perf_counter()
     with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
                          stage=VIDEO_STAGES.index(stage),
-                         log=progress, exe=exe) as system:
+                         log=progress, exe=exe, rectification=rectification) as system:
         bus = SystemBus(system)
         # The app's timeouts run on the hardware's simulated time (a simulated frame
         # takes far longer than 33 ms of wall time), its frame is the clip's.
@@ -210,7 +213,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
 
 
 def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
-                    keep=(), threads=None, model_progress=None, progress=None, exe=None):
+                    keep=(), threads=None, model_progress=None, progress=None, exe=None,
+                    rectification=None):
     """A rendered clip end to end: the golden model over every frame (keeping the
     stages of the frames in ``keep`` and of the last one), the hold-still
     extension, then :func:`run_end_to_end`. Returns (model trajectory of the
@@ -218,8 +222,10 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
     from sim.model.pipeline import run_clip
     chosen = set(keep) | {clip.frames - 1}
     trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
-                                progress=model_progress, threads=threads)
+                                progress=model_progress, threads=threads,
+                                rectification=rectification)
     left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
-                            stage=stage, progress=progress, exe=exe)
+                            stage=stage, progress=progress, exe=exe,
+                            rectification=rectification)
     return played, kept, extra, result

@@ -66,21 +66,24 @@ def _wrapper(core) -> str:
             f"  stereogest_core core({', '.join(connections)});\nendmodule\n")
 
 
-def _make_core(width, height, params, clocks: Clocks):
+def _make_core(width, height, params, clocks: Clocks, rectification=None):
     from soc.core import StereogestCore
-    return StereogestCore(width, height, params, sync_freq=clocks.sync_hz,
-                          config_freq=1e12 / clocks.config_ps)
+    return StereogestCore(width, height, params, rectification=rectification,
+                          sync_freq=clocks.sync_hz, config_freq=1e12 / clocks.config_ps)
 
 
 def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
                  clocks: Clocks = Clocks(), jobs: int | None = None,
-                 log=None, emission: str = EMISSIONS[0]) -> Path:
+                 log=None, emission: str = EMISSIONS[0], rectification=None) -> Path:
     """Build (or reuse, cached under ``<build>/verilator/system-*``) the Verilated
     core with the harness, its Verilog written as ``emission`` says
-    (:data:`verif.verilator.EMISSIONS`); returns the executable."""
+    (:data:`verif.verilator.EMISSIONS`), with ``rectification``'s stages if given;
+    returns the executable."""
     from soc.core import CORE_NAME, strip_zero_init
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
                 config_ps=clocks.config_ps, emission=emission, **params.as_dict())
+    if rectification is not None:
+        spec["rectification"] = rectification.digest()
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = sources_digest(["hdl", "soc"], [HARNESS, Path(__file__)])   # the wrapper too
     folder = build_root() / f"system-{key}-{digest}"
@@ -89,7 +92,7 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
         return exe
     if log is not None:
         log(f"building the Verilated system ({width}x{height}; a few minutes, cached)")
-    core = _make_core(width, height, params, clocks)
+    core = _make_core(width, height, params, clocks, rectification)
     text = strip_zero_init(simulation_verilog(core, CORE_NAME, emission=emission)) \
         + _wrapper(core)
     return verilate(folder, f"{TOP}.v", text, spec, TOP, "system_harness", HARNESS,
@@ -110,11 +113,13 @@ class VerilatorSystem:
     exe : path, optional
         A harness already built by :func:`build_system` for these parameters
         (default: build or reuse the cached one).
+    rectification : sim.model.rectify.StereoRectification, optional
+        The core's rectification stages (their maps), as :func:`build_system`.
     """
 
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
                  *, clocks: Clocks = Clocks(), stage: int = 5, log=None,
-                 exe: Path | None = None):
+                 exe: Path | None = None, rectification=None):
         from hdl.gesture_pipeline import pipeline_timing
         from sim.camera import pack_pins
         from soc.vga_timing import VGA_640x480_60
@@ -127,8 +132,9 @@ class VerilatorSystem:
         params.validate(self.width, self.height)
         self.clocks = clocks
         self.exe = Path(exe) if exe is not None else \
-            build_system(self.width, self.height, params, clocks, log=log)
-        flush = pipeline_timing(self.width, self.height, params).flush
+            build_system(self.width, self.height, params, clocks, log=log,
+                         rectification=rectification)
+        flush = pipeline_timing(self.width, self.height, params, rectification).flush
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")
         tmp = Path(self._tmp.name)

@@ -59,6 +59,8 @@ def add_arguments(p):
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    from stereogest.commands import add_calibration_options
+    add_calibration_options(p)
     add_json_switch(p, always=True)
 
 
@@ -73,7 +75,7 @@ def run(args) -> int:
     from sim.model.pipeline import PipelineParams
     from sim.model.validation import check_int
     from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
-    from stereogest.commands import OutputDir
+    from stereogest.commands import OutputDir, load_rectification
     from stereogest.pipeline_outputs import shipped_model_path
     from sw_hps.hmm import load_models
 
@@ -100,11 +102,12 @@ def run(args) -> int:
         clip, width, height = None, args.width, args.height
     params = PipelineParams.for_frame(width)
     params.validate(width, height)
+    rectification = load_rectification(args, width, height)
     with OutputDir(args.output) as out:
-        return _demo(args, clip, params, models, say, out)
+        return _demo(args, clip, params, models, say, out, rectification)
 
 
-def _demo(args, clip, params, models, say, out) -> int:
+def _demo(args, clip, params, models, say, out, rectification=None) -> int:
     from sim.clip import save_clip
     from sim.images import write_png
     from sim.model.pipeline import run_clip
@@ -121,6 +124,14 @@ def _demo(args, clip, params, models, say, out) -> int:
     else:
         clip = render_clip(args.gesture, args.seed, args.width, args.height,
                            n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
+        if rectification is not None:
+            # what the calibrated cameras would see of the rendered (aligned) view
+            import dataclasses
+
+            from sim.calibration import camera_frames, load_calibration
+            calib = load_calibration(args.calibration)
+            clip = dataclasses.replace(clip, left=camera_frames(clip.left, calib, "left"),
+                                       right=camera_frames(clip.right, calib, "right"))
         clip_dir = save_clip(clip, out / "clip")
         print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
               f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
@@ -132,12 +143,14 @@ def _demo(args, clip, params, models, say, out) -> int:
     say("golden model:")
     if args.backend == "model":
         trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
-                                    progress=progress_printer(args.quiet), threads=args.threads)
+                                    progress=progress_printer(args.quiet), threads=args.threads,
+                                    rectification=rectification)
     else:
         from verif.end_to_end import clip_end_to_end
         trajectory, kept, extra, result = clip_end_to_end(
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
-            model_progress=progress_printer(args.quiet), progress=say)
+            model_progress=progress_printer(args.quiet), progress=say,
+            rectification=rectification)
     pictures = out / "pipeline"
     for pattern in STALE:                # a reused folder: no old picture passes for new
         for old in pictures.glob(pattern):
