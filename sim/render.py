@@ -44,6 +44,7 @@ from statistics import NormalDist
 import numpy as np
 
 from sim.clip import MAX_DISPARITY, Clip, round_truth
+from sim.difficulties import Difficulties, camera_gains
 from sim.gesture_shapes import gesture_id, gesture_path, random_time_warp
 from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
@@ -78,7 +79,9 @@ _ASPECT_RANGE = (0.9, 1.1)
 
 # Independent random streams (SeedSequence entropy words).
 _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = range(1, 6)
-_STREAM_MOTION, _STREAM_NOISE = 6, 7
+_STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE = 6, 7, 8
+#: Sub-positions the hand is averaged over with motion blur.
+_BLUR_SAMPLES = 7
 
 # Clothing colours (Cb, Cr, mean Y): every one fails the skin box (Cr < 133 or Cb > 127).
 _SHIRT_PALETTE = ((150, 112, 90), (112, 104, 110), (128, 124, 70), (142, 100, 120),
@@ -201,6 +204,9 @@ class StereoScene:
         Frame counts overriding the seeded ones (``n_motion >= 2``; the rests may be 0).
     noise : bool
         Add the sensor noise in :meth:`stereo_frame`.
+    difficulties : sim.difficulties.Difficulties, optional
+        Exposure drift and flicker, motion blur, skin tone, camera misalignment
+        (all off by default: the easy scene, bit for bit).
 
     Attributes
     ----------
@@ -232,7 +238,11 @@ class StereoScene:
                  face_disparity: int = 24, torso_disparity: int = 28,
                  background_disparity: int | None = None, n_pre_rest: int | None = None,
                  n_motion: int | None = None, n_post_rest: int | None = None,
-                 noise: bool = True) -> None:
+                 noise: bool = True, difficulties: Difficulties | None = None) -> None:
+        if difficulties is not None and not isinstance(difficulties, Difficulties):
+            raise ValueError(f"difficulties must be a sim.difficulties.Difficulties, got "
+                             f"{type(difficulties).__name__}")
+        self.difficulties = difficulties or Difficulties()
         self.gesture_id = gesture_id(gesture)
         self.gesture = gesture
         self.seed = check_int("seed", seed, 0, 2 ** 63 - 1)
@@ -265,6 +275,14 @@ class StereoScene:
         self._build_hand_sprite()
         self._plan_motion(n_pre_rest, n_motion, n_post_rest)
         self._build_static_layers()
+        hard = self.difficulties
+        self._gains = camera_gains(hard, self.frames, self._rng(_STREAM_EXPOSURE,
+                                                                 self.gesture_id)) \
+            if hard.exposure_drift or hard.flicker else None
+        self._rig = None
+        if hard.misaligned:
+            from sim.calibration import StereoRig, rig_calibration
+            self._rig = rig_calibration(StereoRig().resized(self.width, self.height))
 
     # ---------------------------------------------------------------- set-up
 
@@ -321,8 +339,13 @@ class StereoScene:
         texture = _fractal(rng, *shape, s, (10, 5, 2.5, 1), (7.0, 6.0, 6.0, 3.0))
         low = _fractal(rng, *shape, s, (16,), (1.0,))
         y_plane = 174 + texture - shade - 32 * creases
-        cb_plane = np.clip(104 + 3 * low, *_SKIN_CB)
-        cr_plane = np.clip(153 + 3 * low, *_SKIN_CR)
+        if self.difficulties.skin_tone:
+            cb0, cr0 = self.difficulties.skin_chroma()
+            cb_plane = np.clip(cb0 + 3 * low, cb0 - 12, cb0 + 12)
+            cr_plane = np.clip(cr0 + 3 * low, cr0 - 12, cr0 + 12)
+        else:
+            cb_plane = np.clip(104 + 3 * low, *_SKIN_CB)
+            cr_plane = np.clip(153 + 3 * low, *_SKIN_CR)
         ycc = np.stack([y_plane, cb_plane, cr_plane]).astype(np.float32)
 
         rows, cols = np.nonzero(mask)
@@ -529,9 +552,10 @@ class StereoScene:
     def _check_frame(self, frame) -> int:
         return check_int("frame", frame, 0, self.frames - 1)
 
-    def _hand_region(self, frame: int, shift: int):
-        """View and sprite slices of the hand in a view whose layer shift is ``shift``."""
-        ax, ay = self.hand_anchor[frame]
+    def _hand_region(self, frame: int, shift: int, anchor=None):
+        """View and sprite slices of the hand in a view whose layer shift is ``shift``
+        (at ``anchor`` instead of the frame's palm centre, if given)."""
+        ax, ay = self.hand_anchor[frame] if anchor is None else anchor
         layer = _Layer("hand", self.disparities["hand"], int(ay) + self._sprite_offset[0],
                        int(ax) + self._sprite_offset[1], self._sprite_mask, None)
         return self._view_region(layer, shift)
@@ -539,17 +563,40 @@ class StereoScene:
     def views444(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free left and right images of a frame, each (3, H, W) uint8 (Y, Cb, Cr)."""
         frame = self._check_frame(frame)
+        anchors = self._blur_anchors(frame) if self.difficulties.motion_blur else [None]
         views = []
         for view, sprite, shift in (("left", self._sprite_left, 0),
                                     ("right", self._sprite_right, self.disparities["hand"])):
-            image = self._static[view].copy()
-            region = self._hand_region(frame, shift)
-            if region is not None:
-                (vy, vx), (ly, lx) = region
-                mask = self._sprite_mask[ly, lx]
-                image[:, vy, vx] = np.where(mask, sprite[:, ly, lx], image[:, vy, vx])
-            views.append(image)
+            total = None
+            for anchor in anchors:
+                image = self._static[view].copy()
+                region = self._hand_region(frame, shift, anchor)
+                if region is not None:
+                    (vy, vx), (ly, lx) = region
+                    mask = self._sprite_mask[ly, lx]
+                    image[:, vy, vx] = np.where(mask, sprite[:, ly, lx], image[:, vy, vx])
+                if len(anchors) == 1:
+                    total = image
+                else:
+                    total = image.astype(np.float32) if total is None else total + image
+            if len(anchors) > 1:
+                total = np.rint(total / len(anchors)).astype(np.uint8)
+            views.append(total)
         return views[0], views[1]
+
+    def _blur_anchors(self, frame: int) -> list:
+        """Palm centres over the exposure: ``motion_blur`` of the frame interval
+        centred on the frame time, the hand moving towards the previous frame's
+        position before it and the next one's after it."""
+        here = self.hand_anchor[frame].astype(float)
+        before = self.hand_anchor[max(frame - 1, 0)].astype(float)
+        after = self.hand_anchor[min(frame + 1, self.frames - 1)].astype(float)
+        half = self.difficulties.motion_blur / 2
+        out = []
+        for t in np.linspace(-half, half, _BLUR_SAMPLES):
+            point = here + t * (here - before) if t < 0 else here + t * (after - here)
+            out.append(tuple(int(v) for v in np.rint(point)))
+        return out
 
     def _check_view(self, view) -> int:
         """Layer shift of a view: 0 for the left camera, the disparity for the right."""
@@ -611,6 +658,14 @@ class StereoScene:
         """
         left444, right444 = self.views444(frame)
         streams = [ycbcr444_to_422(*left444), ycbcr444_to_422(*right444)]
+        if self._rig is not None:
+            from sim.calibration import camera_frames
+            streams = [camera_frames(stream[None], self._rig, side)[0]
+                       for stream, side in zip(streams, ("left", "right"))]
+        if self._gains is not None:
+            for camera, stream in enumerate(streams):
+                luma = stream[:, 0::2].astype(np.float32) * self._gains[camera, frame]
+                stream[:, 0::2] = np.clip(np.rint(luma), 0, 255).astype(np.uint8)
         if not self.noise:
             return streams[0], streams[1]
         rng = self._rng(_STREAM_NOISE, self.gesture_id, frame)
@@ -649,6 +704,7 @@ class StereoScene:
             "noise": self.noise,
             "noise_sigma_y": NOISE_SIGMA_Y, "noise_sigma_c": NOISE_SIGMA_C,
             "right_y_gain": RIGHT_Y_GAIN, "right_y_offset": RIGHT_Y_OFFSET,
+            **({"difficulties": self.difficulties.as_dict()} if self.difficulties.any else {}),
         }
 
 
@@ -657,7 +713,7 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
                 face_disparity: int = 24, torso_disparity: int = 28,
                 background_disparity: int | None = None, n_pre_rest: int | None = None,
                 n_motion: int | None = None, n_post_rest: int | None = None,
-                noise: bool = True) -> Clip:
+                noise: bool = True, difficulties: Difficulties | None = None) -> Clip:
     """Render a synthetic stereo clip of one gesture (thesis Figs. 16 and 77).
 
     The parameters are those of :class:`StereoScene`. The clip's truth is the
@@ -676,7 +732,8 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
     scene = StereoScene(gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
                         face_disparity=face_disparity, torso_disparity=torso_disparity,
                         background_disparity=background_disparity, n_pre_rest=n_pre_rest,
-                        n_motion=n_motion, n_post_rest=n_post_rest, noise=noise)
+                        n_motion=n_motion, n_post_rest=n_post_rest, noise=noise,
+                        difficulties=difficulties)
     shape = (scene.frames, scene.height, 2 * scene.width)
     left = np.empty(shape, np.uint8)
     right = np.empty(shape, np.uint8)

@@ -105,6 +105,12 @@ CASES = [
       for option, value in [("--seed", "-1"), ("--width", "95"), ("--width", "97"),
                             ("--width", "4098"), ("--height", "63"), ("--height", "65"),
                             ("--height", "5000"), ("--fps", "4"), ("--fps", "241")]],
+    *[case("render", "--gesture", "stop", "-o", f"{OUT}/c", option, value, match=match)
+      for option, value, match in [("--motion-blur", "1.5", "--motion-blur must be a number"),
+                                   ("--skin-tone", "-2", "--skin-tone must be a number"),
+                                   ("--exposure-drift", "nan", "--exposure-drift must be"),
+                                   ("--flicker", "0.3", "--flicker must be a number"),
+                                   ("--flicker", "abc", "argument --flicker")]],
     case("render", "--gesture", "stop", "-o", f"{IN}/afile", match="not a stereogest clip"),
     case("render", "--gesture", "stop", "-o", f"{OUT}/no/such/dir", match="does not exist"),
     case("render", "--gesture", "stop", "-o", "/proc/stereogest-clip", "--width", "96",
