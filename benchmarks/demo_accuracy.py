@@ -10,7 +10,15 @@ the application pops, the UART bytes against its telegram and the VGA frame.
 
 Run: ``python benchmarks/demo_accuracy.py [--width 320 --height 240]
 [--per-gesture 5] [--first-seed 2001] [--gesture NAME ...] [--jobs 2]
-[--scheduler ADDRESS] [--json FILE] [--backend model]``
+[--scheduler ADDRESS] [--json FILE] [--backend model] [--scene easy|hard]
+[--difficulty NAME=VALUE ...]``
+
+``--scene`` and ``--difficulty`` (e.g. ``forearm=1``, ``motion_blur=0.5``) render
+the clips with the scene difficulties of :mod:`sim.difficulties` (the person's
+skin tone and hand size of ``hard`` come from each seed). Besides the
+recognised fraction every clip reports the centroid error against the rendered
+truth (mean and 95th percentile over the frames where both exist) and its
+flagged spans (0: the gesture was missed, 2 or more: split).
 (``--backend model``: the golden model, bit-exact with the hardware, instead of
 Verilator). The clips run on ``--jobs`` local processes or, with
 ``--scheduler tcp://host:8786``, on the workers of a running Dask cluster; each
@@ -36,10 +44,34 @@ def _models(path):
     return load_models(path or shipped_model_path())
 
 
+def difficulties_of(scene, overrides, seed):
+    """The clip's :class:`sim.difficulties.Difficulties`: the scene's preset for
+    ``seed`` with ``overrides`` (name -> value) on top."""
+    import dataclasses
+
+    from sim.difficulties import preset
+    return dataclasses.replace(preset(scene, seed), **dict(overrides))
+
+
+def track_figures(clip, trajectory) -> dict:
+    """Centroid error against the truth and the flagged spans of a clip."""
+    import numpy as np
+    truth = clip.hand_xy
+    seen = (trajectory.area > 0) & np.isfinite(truth[:, 0])
+    error = np.hypot(*(trajectory.centroid[seen] - truth[seen]).T) if seen.any() else None
+    flag = np.asarray(trajectory.flag, bool)
+    spans = int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
+    return {"centroid_error_mean": None if error is None else round(float(error.mean()), 2),
+            "centroid_error_p95": None if error is None
+            else round(float(np.percentile(error, 95)), 2),
+            "hand_frames": int(seen.sum()), "flag_spans": spans}
+
+
 def one_clip(job):
-    gesture, seed, width, height, backend, model = job
+    gesture, seed, width, height, backend, model, scene, overrides = job
+    difficulties = difficulties_of(scene, overrides, seed)
     if backend == "model":
-        return model_clip(gesture, seed, width, height, model)
+        return model_clip(gesture, seed, width, height, model, difficulties)
     from sim.model.pipeline import PipelineParams
     from sim.render import render_clip
     from verif.end_to_end import clip_end_to_end
@@ -49,9 +81,10 @@ def one_clip(job):
     params = PipelineParams.for_frame(width)
     exe = build_system(width, height, params)     # cached: built once per machine
     start = time.perf_counter()
-    clip = render_clip(gesture, seed, width, height)
-    _, _, extra, result = clip_end_to_end(clip, models, params, threads=1, exe=exe)
+    clip = render_clip(gesture, seed, width, height, difficulties=difficulties)
+    played, _, extra, result = clip_end_to_end(clip, models, params, threads=1, exe=exe)
     return {"gesture": gesture, "seed": seed, "frames": clip.frames, "held": extra,
+            **track_figures(clip, _first(played, clip.frames)),
             "recognised": result.recognised,
             "all_recognised": [r.get("class_name") for r in result.results
                                if r.get("outcome") == "recognised"],
@@ -62,7 +95,13 @@ def one_clip(job):
             "cycles": result.cycles, "seconds": round(time.perf_counter() - start, 1)}
 
 
-def model_clip(gesture, seed, width, height, model=None):
+def _first(trajectory, frames):
+    """The trajectory's first ``frames`` frames (the hold-still frames left out)."""
+    from sim.model.pipeline import Trajectory
+    return Trajectory(*(getattr(trajectory, f)[:frames] for f in Trajectory._fields))
+
+
+def model_clip(gesture, seed, width, height, model=None, difficulties=None):
     """The golden model instead of the hardware (bit-exact with it), the
     application on a simulated FIFO, as ``stereogest demo --backend model``."""
     from sim.model.pipeline import PipelineParams, run_clip
@@ -72,11 +111,12 @@ def model_clip(gesture, seed, width, height, model=None):
     models = _models(model)
     params = PipelineParams.for_frame(width)
     start = time.perf_counter()
-    clip = render_clip(gesture, seed, width, height)
+    clip = render_clip(gesture, seed, width, height, difficulties=difficulties)
     trajectory, _ = run_clip(clip.left, clip.right, params, threads=1)
     board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
                               trajectory.flag, pixels=False)
     return {"gesture": gesture, "seed": seed, "frames": clip.frames, "held": 0,
+            **track_figures(clip, trajectory),
             "recognised": board.recognised[-1] if board.recognised else None,
             "all_recognised": board.recognised,
             "telegram": board.telegrams[-1].hex(" ") if board.telegrams else "",
@@ -87,6 +127,9 @@ def model_clip(gesture, seed, width, height, model=None):
 def _run(jobs, processes, scheduler):
     """Rows of :func:`one_clip` as they finish: local processes, or the workers
     of the Dask cluster at ``scheduler``."""
+    if scheduler is None and processes == 1:
+        yield from map(one_clip, jobs)          # in this process
+        return
     if scheduler is None:
         with multiprocessing.get_context("fork").Pool(processes) as pool:
             yield from pool.imap_unordered(one_clip, jobs)
@@ -118,7 +161,29 @@ def main(argv=None):
                     help="board model file (default: the demo's, sw_hps/models/gestures7.json)")
     ap.add_argument("--backend", choices=("verilator", "model"), default="verilator",
                     help="model: the golden model only (minutes instead of hours)")
+    ap.add_argument("--scene", choices=("easy", "hard"), default="easy",
+                    help="scene difficulties (sim/difficulties.py)")
+    ap.add_argument("--difficulty", action="append", default=[], metavar="NAME=VALUE",
+                    help="one difficulty on top of the scene (repeatable), e.g. forearm=1")
     args = ap.parse_args(argv)
+    overrides = []
+    for item in args.difficulty:
+        name, _, value = item.partition("=")
+        from sim.difficulties import RANGES, SWITCHES
+        if name in SWITCHES:
+            overrides.append((name, value not in ("0", "false", "False", "")))
+        elif name in RANGES:
+            try:
+                overrides.append((name, float(value)))
+            except ValueError:
+                ap.error(f"--difficulty {item}: {name} takes a number")
+        else:
+            ap.error(f"--difficulty {item}: no such difficulty (one of "
+                     f"{', '.join((*RANGES, *SWITCHES))})")
+    try:
+        difficulties_of(args.scene, overrides, args.first_seed)
+    except ValueError as exc:
+        ap.error(f"--difficulty: {exc}")
     if args.jobs < 1 or args.per_gesture < 1:
         ap.error(f"--jobs and --per-gesture must be >= 1, got {args.jobs} and "
                  f"{args.per_gesture}")
@@ -132,17 +197,20 @@ def main(argv=None):
         print(f"building the Verilated system at {args.width}x{args.height} ...", flush=True)
         build_system(args.width, args.height, PipelineParams.for_frame(args.width))
     gestures = args.gesture or GESTURES
-    jobs = [(g, args.first_seed + k, args.width, args.height, args.backend, args.model)
+    jobs = [(g, args.first_seed + k, args.width, args.height, args.backend, args.model,
+             args.scene, tuple(overrides))
             for k in range(args.per_gesture) for g in gestures]
     rows = []
-    print("| gesture | seed | frames | recognised | FIFO = model | VGA = model | UART = "
-          "telegram | s |\n|---|---|---|---|---|---|---|---|", flush=True)
+    print("| gesture | seed | frames | recognised | centroid error mean / p95 (px) | "
+          "flagged spans | FIFO = model | VGA = model | UART = telegram | s |\n"
+          "|---|---|---|---|---|---|---|---|---|---|", flush=True)
     for row in _run(jobs, args.jobs, args.scheduler):
         rows.append(row)
         vga = None if row["vga_mismatches"] is None else row["vga_mismatches"] == 0
         checks = [row["fifo_matches_model"], vga, row["uart_matches_telegram"]]
         print(f"| {row['gesture']} | {row['seed']} | {row['frames']}+{row['held']} | "
-              f"{row['recognised']} | "
+              f"{row['recognised']} | {row['centroid_error_mean']} / "
+              f"{row['centroid_error_p95']} | {row['flag_spans']} | "
               + " | ".join("-" if c is None else str(c) for c in checks)
               + f" | {row['seconds']} |", flush=True)
     wall = time.perf_counter() - start
@@ -157,7 +225,19 @@ def main(argv=None):
     print(f"\nrecognised {correct} of {len(rows)} clips ({100 * correct / len(rows):.1f} %), "
           f"{check}; wall time {wall / 60:.1f} min with "
           + (f"the cluster at {args.scheduler}" if args.scheduler else f"{args.jobs} jobs"))
+    import numpy as np
+    means = [r["centroid_error_mean"] for r in rows if r["centroid_error_mean"] is not None]
+    p95s = [r["centroid_error_p95"] for r in rows if r["centroid_error_p95"] is not None]
+    spotting = {"missed": sum(r["flag_spans"] == 0 for r in rows),
+                "split": sum(r["flag_spans"] > 1 for r in rows)}
+    print(f"centroid error: mean {np.mean(means):.2f} px, 95th percentile (mean over clips) "
+          f"{np.mean(p95s):.2f} px; spotting: {spotting['missed']} missed, "
+          f"{spotting['split']} split")
     summary = {"backend": args.backend, "width": args.width, "height": args.height,
+               "scene": args.scene, "difficulties": dict(overrides),
+               "centroid_error_mean": round(float(np.mean(means)), 2) if means else None,
+               "centroid_error_p95": round(float(np.mean(p95s)), 2) if p95s else None,
+               "spotting": spotting,
                "clips": len(rows),
                "correct": correct, "accuracy": correct / len(rows),
                "hardware_exact": exact,

@@ -18,6 +18,21 @@ skin_tone          -1 .. 1           the hand's Cb/Cr moved from the default ton
                                      -1 at (79, 135), +1 at (125, 171), both just inside
                                      Cb 77..127, Cr 133..173; its texture keeps some
                                      pixels beyond the edge
+forearm            True / False      a bare forearm joined to the wrist, skin-coloured,
+                                     its disparity sloping from the hand's - 1 at the
+                                     wrist to the torso's + 1 at the elbow (below the
+                                     chest), so part of it lies inside the band; a
+                                     non-skin sleeve on its last third
+clutter            True / False      skin-toned things in the room: a wooden board on
+                                     the wall and a second person's face further back
+                                     (both pass the Cb/Cr box, outside the band)
+intruder           True / False      a skin-coloured ball at the hand's depth (its
+                                     disparity - 2, inside the band) rolls into the
+                                     picture and out again for a third of the clip,
+                                     clear of the hand's path
+defocus            0 .. 2            everything but the hand is blurred, sigma = defocus
+                                     x |d - d_hand| / 10 px (the background most)
+hand_scale         0.8 .. 1.2        the hand (and forearm) this much larger or smaller
 misaligned         True / False      the cameras of :class:`sim.calibration.StereoRig`
                                      (lens distortion, under a degree of roll, pitch and
                                      yaw, principal points apart) see the scene; truth
@@ -29,17 +44,20 @@ misaligned         True / False      the cameras of :class:`sim.calibration.Ster
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from sim.model.validation import check_number
 
-__all__ = ["Difficulties", "RANGES", "SKIN_TONE_EDGES", "camera_gains"]
+__all__ = ["Difficulties", "RANGES", "SWITCHES", "SKIN_TONE_EDGES", "SCENES", "HARD",
+           "HARD_PERSON", "preset", "camera_gains"]
 
 #: Allowed range of each numeric difficulty.
 RANGES = {"exposure_drift": (0.0, 0.5), "flicker": (0.0, 0.2), "motion_blur": (0.0, 1.0),
-          "skin_tone": (-1.0, 1.0)}
+          "skin_tone": (-1.0, 1.0), "defocus": (0.0, 2.0), "hand_scale": (0.8, 1.2)}
+#: The switches (True / False).
+SWITCHES = ("forearm", "clutter", "intruder", "misaligned")
 #: Hand (Cb, Cr) at skin_tone -1, 0 and +1.
 SKIN_TONE_EDGES = {-1: (79.0, 135.0), 0: (104.0, 153.0), 1: (125.0, 171.0)}
 
@@ -51,18 +69,24 @@ class Difficulties:
     flicker: float = 0.0
     motion_blur: float = 0.0
     skin_tone: float = 0.0
+    forearm: bool = False
+    clutter: bool = False
+    intruder: bool = False
+    defocus: float = 0.0
+    hand_scale: float = 1.0
     misaligned: bool = False
 
     def __post_init__(self):
         for name, (lo, hi) in RANGES.items():
             object.__setattr__(self, name, check_number(name, getattr(self, name), lo, hi))
-        if not isinstance(self.misaligned, bool):
-            raise ValueError(f"misaligned must be True or False, got {self.misaligned!r}")
+        for name in SWITCHES:
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
     @property
     def any(self) -> bool:
         """Whether any difficulty is on (else the scene is the easy one)."""
-        return any(getattr(self, f.name) for f in fields(self))
+        return self != Difficulties()
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -87,3 +111,24 @@ def camera_gains(difficulties: Difficulties, frames: int, rng: np.random.Generat
         jitter = rng.uniform(-1, 1, frames) * difficulties.flicker
         gains[camera] = (1 + drift) * (1 + jitter)
     return gains
+
+
+#: The scenes of ``--scene``: ``easy`` is today's; ``hard`` has every difficulty
+#: but the misalignment (which needs its calibration to be undone), with each
+#: person's skin tone and hand size drawn from the seed (:func:`preset`).
+SCENES = ("easy", "hard")
+HARD = dict(exposure_drift=0.15, flicker=0.03, motion_blur=0.5, forearm=True, clutter=True,
+            intruder=True, defocus=0.8)
+#: The ranges the hard scene draws each person's skin tone and hand size from.
+HARD_PERSON = {"skin_tone": (-0.8, 0.8), "hand_scale": (0.9, 1.1)}
+
+
+def preset(scene: str, seed: int) -> Difficulties:
+    """The difficulties of ``scene`` (:data:`SCENES`) for the person of ``seed``."""
+    if scene not in SCENES:
+        raise ValueError(f"scene must be one of {', '.join(SCENES)}, got {scene!r}")
+    if scene == "easy":
+        return Difficulties()
+    rng = np.random.default_rng([int(seed), 18])
+    person = {name: float(rng.uniform(lo, hi)) for name, (lo, hi) in HARD_PERSON.items()}
+    return Difficulties(**HARD, **person)

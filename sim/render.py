@@ -57,7 +57,8 @@ __all__ = [
 
 REFERENCE_WIDTH, REFERENCE_HEIGHT = 640, 480
 #: Layer id of each pixel in :meth:`StereoScene.label_map`.
-LAYER_LABELS = {"background": 0, "torso": 1, "hair": 2, "face": 3, "hand": 4}
+LAYER_LABELS = {"background": 0, "torso": 1, "hair": 2, "face": 3, "hand": 4, "forearm": 5,
+                "clutter": 6, "intruder": 7}
 NOISE_SIGMA_Y = 2.0
 NOISE_SIGMA_C = 1.0
 RIGHT_Y_GAIN = 0.96
@@ -79,7 +80,13 @@ _ASPECT_RANGE = (0.9, 1.1)
 
 # Independent random streams (SeedSequence entropy words).
 _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = range(1, 6)
-_STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE = 6, 7, 8
+_STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE, _STREAM_FOREARM = 6, 7, 8, 9
+_STREAM_CLUTTER, _STREAM_INTRUDER = 10, 11
+#: The intruder ball (reference px radius), its disparity below the hand's.
+_INTRUDER_RADIUS, _INTRUDER_BELOW_HAND = 26.0, 2
+#: Forearm (reference px): radius, wrist below the palm centre, segments of one
+#: disparity each, the sleeve's share of the length.
+_FOREARM_RADIUS, _WRIST_BELOW, _FOREARM_SEGMENTS, _SLEEVE_SHARE = 15.0, 20.0, 12, 1 / 3
 #: Sub-positions the hand is averaged over with motion blur.
 _BLUR_SAMPLES = 7
 
@@ -279,6 +286,11 @@ class StereoScene:
         self._gains = camera_gains(hard, self.frames, self._rng(_STREAM_EXPOSURE,
                                                                  self.gesture_id)) \
             if hard.exposure_drift or hard.flicker else None
+        if hard.forearm:
+            self._build_forearm()
+        self._intruder = None
+        if hard.intruder:
+            self._plan_intruder()
         self._rig = None
         if hard.misaligned:
             from sim.calibration import StereoRig, rig_calibration
@@ -302,8 +314,9 @@ class StereoScene:
                       0.66 * h + rng.uniform(-12, 12) * s)
 
     def _build_hand_sprite(self) -> None:
-        """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px tall."""
-        s = self.scale
+        """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px tall
+        (times ``hand_scale``)."""
+        s = self.scale * self.difficulties.hand_scale
         rng = self._rng(_STREAM_HAND)
         x_lo, x_hi = math.floor(-42 * s) - 1, math.ceil(32 * s) + 1
         y_lo, y_hi = math.floor(-60 * s) - 1, math.ceil(26 * s) + 1
@@ -423,6 +436,10 @@ class StereoScene:
         h = self.height
         canvas_w = self.width + MAX_DISPARITY   # right view reads x + d < width + 48
         layers = [self._background(canvas_w), *self._head(), self._torso(canvas_w)]
+        if self.difficulties.clutter:
+            layers += self._clutter(canvas_w)
+        if self.difficulties.defocus:
+            layers = [self._defocused(layer) for layer in layers]
         order = sorted(layers, key=lambda layer: layer.disparity)   # stable: far to near
         self._static = {}
         self._static_labels = {}
@@ -446,6 +463,111 @@ class StereoScene:
             self._static[view] = _to_u8(image)
             self._static_labels[view] = labels
             self._static_disparity[view] = disparity
+
+    def _defocused(self, layer: _Layer) -> _Layer:
+        """The layer's picture blurred by its depth's distance from the hand's."""
+        import cv2
+        sigma = (self.difficulties.defocus * abs(layer.disparity - self.disparities["hand"])
+                 / 10 * self.scale)
+        if sigma < 0.3:
+            return layer
+        ycc = np.stack([cv2.GaussianBlur(np.ascontiguousarray(c), (0, 0), sigma,
+                                         borderType=cv2.BORDER_REPLICATE) for c in layer.ycc])
+        return _Layer(layer.name, layer.disparity, layer.y0, layer.x0, layer.mask, ycc)
+
+    def _clutter(self, canvas_w: int) -> list[_Layer]:
+        """A wooden board on the wall and a second person's face further back, both
+        inside the Cb/Cr box and outside the disparity band."""
+        s, h = self.scale, self.height
+        rng = self._rng(_STREAM_CLUTTER)
+        side = 1 if self.face_center[0] < self.width / 2 else -1     # away from the face
+        bw, bh = rng.uniform(90, 140) * s, rng.uniform(120, 180) * s
+        bx = self.width / 2 + side * rng.uniform(0.28, 0.36) * self.width - bw / 2
+        by = rng.uniform(0.05, 0.25) * h
+        x0, y0 = int(bx), int(by)
+        ys, xs = np.mgrid[0:int(bh), 0:int(bw)].astype(np.float32)
+        grain = 10 * np.sin(2 * np.pi * (xs + 6 * _fractal(rng, *xs.shape, s, (30,), (1.0,)))
+                            / max(3.0, 9 * s))
+        luma = 140 + grain + _fractal(rng, *xs.shape, s, (12, 3), (4.0, 2.0))
+        board = np.stack([luma, np.full_like(luma, 100.0), np.full_like(luma, 150.0)])
+        d_board = min(self.disparities["background"] + 2, MAX_DISPARITY - 1)
+        layers = [_Layer("clutter", d_board, y0, x0, np.ones(xs.shape, bool),
+                         board.astype(np.float32))]
+        # a second face, smaller (further back), on the other side of the picture
+        fa, fb = rng.uniform(30, 38) * s, rng.uniform(40, 48) * s
+        fcx = self.width / 2 - side * rng.uniform(0.3, 0.38) * self.width
+        fcy = rng.uniform(0.2, 0.35) * h
+        fx0, fy0 = int(fcx - fa) - 1, int(fcy - fb) - 1
+        ys, xs = np.mgrid[fy0:int(fcy + fb) + 2, fx0:int(fcx + fa) + 2].astype(np.float32)
+        r2 = _ellipse(xs, ys, fcx, fcy, fa, fb)
+        luma = 158 + _fractal(rng, *xs.shape, s, (12, 4, 1), (6, 5, 2)) - 20 * np.clip(r2, 0, 1)
+        for eye in (-1, 1):
+            luma = np.where(_ellipse(xs, ys, fcx + eye * 0.38 * fa, fcy - 0.1 * fb,
+                                     0.18 * fa, 0.08 * fb) <= 1, 60, luma)
+        face = np.stack([luma, np.full_like(luma, 108.0), np.full_like(luma, 148.0)])
+        d_face = max(0, min(self.disparities["face"] - 8, MAX_DISPARITY - 1))
+        layers.append(_Layer("clutter", d_face, fy0, fx0, r2 <= 1, face.astype(np.float32)))
+        return layers
+
+    def _plan_intruder(self) -> None:
+        """The ball's path: in from the side and out again, in a horizontal band
+        the hand never enters, for a third of the clip (seeded)."""
+        s = self.scale
+        rng = self._rng(_STREAM_INTRUDER, self.gesture_id)
+        radius = _INTRUDER_RADIUS * s
+        off_y, _ = self._sprite_offset
+        sprite_h = self._sprite_mask.shape[0]
+        top = self.hand_anchor[:, 1].min() + off_y - 8 * s
+        bottom = self.hand_anchor[:, 1].max() + off_y + sprite_h + 8 * s
+        if self.difficulties.forearm:
+            bottom = self.height          # the forearm reaches the bottom edge
+        bands = [(0.0, top), (bottom, float(self.height))]
+        lo, hi = max(bands, key=lambda b: b[1] - b[0])
+        radius = min(radius, (hi - lo) / 2 - 2)
+        self._intruder = None
+        if radius < 6 * s:
+            return                        # no room in this scene: no ball
+        cy = (lo + hi) / 2
+        span = max(2, self.frames // 3)
+        start = int(rng.integers(0, max(1, self.frames - span)))
+        side = int(rng.choice([-1, 1]))
+        reach = rng.uniform(0.15, 0.3) * self.width
+        frames = np.arange(self.frames)
+        phase = np.clip((frames - start) / span, 0, 1)
+        depth_in = np.sin(np.pi * phase) * reach        # 0 outside the span
+        edge = -radius if side < 0 else self.width + radius + self.disparities["hand"]
+        cx = edge - side * depth_in
+        inside = (phase > 0) & (phase < 1)
+        self._intruder = (radius, np.where(inside, cx, np.nan), cy,
+                          max(0, self.disparities["hand"] - _INTRUDER_BELOW_HAND),
+                          _fractal(rng, int(2 * radius) + 3, int(2 * radius) + 3, s, (8, 3, 1),
+                                   (6.0, 5.0, 3.0)))
+
+    def _paste_intruder(self, image, plane, frame: int, view: str, label: bool = False):
+        if self._intruder is None:
+            return
+        radius, cxs, cy, d, texture = self._intruder
+        cx = cxs[frame]
+        if not np.isfinite(cx):
+            return
+        x0, y0 = int(round(cx - radius)) - 1, int(round(cy - radius)) - 1
+        size = texture.shape[0]
+        ys, xs = np.mgrid[y0:y0 + size, x0:x0 + size].astype(np.float32)
+        mask = _ellipse(xs, ys, cx, cy, radius, radius) <= 1
+        luma = 165 + texture - 25 * np.clip(_ellipse(xs, ys, cx, cy, radius, radius), 0, 1)
+        if view == "right":
+            luma = RIGHT_Y_GAIN * luma + RIGHT_Y_OFFSET
+        ycc = np.stack([luma, np.full_like(luma, 102.0), np.full_like(luma, 152.0)])
+        layer = _Layer("intruder", d, y0, x0, mask, ycc)
+        region = self._view_region(layer, d if view == "right" else 0)
+        if region is None:
+            return
+        (vy, vx), (ly, lx) = region
+        m = mask[ly, lx]
+        if image is not None:
+            image[:, vy, vx] = np.where(m, _to_u8(ycc[:, ly, lx]), image[:, vy, vx])
+        else:
+            plane[vy, vx] = np.where(m, LAYER_LABELS["intruder"] if label else d, plane[vy, vx])
 
     def _view_region(self, layer: _Layer, shift: int):
         """Slices of the view and of the layer where the layer (shifted by -shift) lands."""
@@ -570,6 +692,9 @@ class StereoScene:
             total = None
             for anchor in anchors:
                 image = self._static[view].copy()
+                if self.difficulties.forearm:
+                    self._paste_forearm(image, None, frame, view, anchor)
+                self._paste_intruder(image, None, frame, view)
                 region = self._hand_region(frame, shift, anchor)
                 if region is not None:
                     (vy, vx), (ly, lx) = region
@@ -583,6 +708,86 @@ class StereoScene:
                 total = np.rint(total / len(anchors)).astype(np.uint8)
             views.append(total)
         return views[0], views[1]
+
+    def _build_forearm(self) -> None:
+        """The forearm's texture field (in arm coordinates, so both views see the
+        same skin) and its elbow, below the chest on the hand's side."""
+        s = self.scale * self.difficulties.hand_scale
+        rng = self._rng(_STREAM_FOREARM)
+        self._arm_length = int(math.ceil(max(self.width, self.height) * 1.5))
+        radius = _FOREARM_RADIUS * s
+        self._arm_radius = radius
+        rows = int(math.ceil(2 * radius)) + 3
+        texture = _fractal(rng, rows, self._arm_length, s, (10, 5, 2.5, 1), (6.0, 5.0, 5.0, 3.0))
+        self._arm_texture = texture
+        self._elbow = (self.rest[0] + rng.uniform(10, 40) * s, self.height + 30 * s)
+        self._sleeve = (int(rng.integers(60, 200)), 120.0 + rng.uniform(-8, 8),
+                        rng.uniform(135, 150))
+
+    def _forearm_segments(self, frame: int, anchor=None):
+        """(disparity, mask, ycc, y0, x0) of each segment in left-image coordinates,
+        far (elbow) to near (wrist)."""
+        s = self.scale * self.difficulties.hand_scale
+        ax, ay = self.hand_anchor[frame] if anchor is None else anchor
+        wrist = np.array([ax, ay + _WRIST_BELOW * s], float)
+        elbow = np.array(self._elbow)
+        axis = elbow - wrist
+        length = float(np.hypot(*axis))
+        if length < 1:
+            return []
+        unit = axis / length
+        normal = np.array([-unit[1], unit[0]])
+        near = self.disparities["hand"] - 1
+        far = self.disparities["torso"] + 1
+        radius = self._arm_radius
+        out = []
+        for k in reversed(range(_FOREARM_SEGMENTS)):
+            t0, t1 = k / _FOREARM_SEGMENTS, (k + 1) / _FOREARM_SEGMENTS
+            d = int(round(near - (near - far) * (k + 0.5) / _FOREARM_SEGMENTS))
+            p0, p1 = wrist + t0 * axis, wrist + t1 * axis
+            x0 = int(math.floor(min(p0[0], p1[0]) - radius)) - 1
+            x1 = int(math.ceil(max(p0[0], p1[0]) + radius)) + 1
+            y0 = int(math.floor(min(p0[1], p1[1]) - radius)) - 1
+            y1 = int(math.ceil(max(p0[1], p1[1]) + radius)) + 1
+            ys, xs = np.mgrid[y0:y1 + 1, x0:x1 + 1].astype(np.float32)
+            rel_x, rel_y = xs - wrist[0], ys - wrist[1]
+            u = rel_x * unit[0] + rel_y * unit[1]            # along the arm from the wrist
+            v = rel_x * normal[0] + rel_y * normal[1]        # across it
+            mask = (u >= t0 * length) & (u < t1 * length) & (np.abs(v) <= radius)
+            if not mask.any():
+                continue
+            ui = np.clip(u, 0, self._arm_length - 1).astype(np.int64)
+            vi = np.clip(v + radius + 1, 0, self._arm_texture.shape[0] - 1).astype(np.int64)
+            shade = 30 * (np.abs(v) / radius) ** 2
+            luma = 168 + self._arm_texture[vi, ui] - shade
+            sleeve = u >= (1 - _SLEEVE_SHARE) * length
+            sl_y, sl_cb, sl_cr = self._sleeve
+            cb0, cr0 = self.difficulties.skin_chroma()
+            ycc = np.stack([np.where(sleeve, sl_y + 0.5 * (luma - 168), luma),
+                            np.where(sleeve, sl_cb, cb0), np.where(sleeve, sl_cr, cr0)])
+            out.append((d, mask, ycc.astype(np.float32), y0, x0))
+        return out
+
+    def _paste_forearm(self, image, plane, frame: int, view: str, anchor=None,
+                       label: bool = False) -> None:
+        """Draw the forearm into ``image`` (3, H, W) uint8, or its disparity (or,
+        with ``label``, its label) into ``plane`` (H, W)."""
+        for d, mask, ycc, y0, x0 in self._forearm_segments(frame, anchor):
+            if view == "right":
+                right = ycc.copy()
+                right[0] = RIGHT_Y_GAIN * right[0] + RIGHT_Y_OFFSET
+                ycc = right
+            layer = _Layer("forearm", d, y0, x0, mask, ycc)
+            region = self._view_region(layer, d if view == "right" else 0)
+            if region is None:
+                continue
+            (vy, vx), (ly, lx) = region
+            m = mask[ly, lx]
+            if image is not None:
+                image[:, vy, vx] = np.where(m, _to_u8(ycc[:, ly, lx]), image[:, vy, vx])
+            else:
+                value = LAYER_LABELS["forearm"] if label else d
+                plane[vy, vx] = np.where(m, value, plane[vy, vx])
 
     def _blur_anchors(self, frame: int) -> list:
         """Palm centres over the exposure: ``motion_blur`` of the frame interval
@@ -622,6 +827,9 @@ class StereoScene:
         """
         hand = self.hand_mask(frame, view)
         labels = self._static_labels[view].copy()
+        if self.difficulties.forearm:
+            self._paste_forearm(None, labels, frame, view, label=True)
+        self._paste_intruder(None, labels, frame, view, label=True)
         labels[hand] = LAYER_LABELS["hand"]
         return labels
 
@@ -634,6 +842,9 @@ class StereoScene:
         """
         hand = self.hand_mask(frame, view)
         disparity = self._static_disparity[view].copy()
+        if self.difficulties.forearm:
+            self._paste_forearm(None, disparity, frame, view)
+        self._paste_intruder(None, disparity, frame, view)
         disparity[hand] = self.disparities["hand"]
         return disparity
 

@@ -85,6 +85,24 @@ def test_demo_accuracy_runs_its_clips_on_a_dask_cluster(capsys):
     assert out.count("| stop | 200") == 2      # seeds 2001 and 2002, one row each
 
 
+def test_demo_accuracy_scene_and_difficulties(capsys):
+    bench = load_script("demo_accuracy")
+    bench.main(["--backend", "model", "--width", "160", "--height", "120", "--jobs", "1",
+                "--per-gesture", "1", "--gesture", "stop", "--scene", "hard",
+                "--difficulty", "forearm=0", "--difficulty", "motion_blur=0.2"])
+    out = capsys.readouterr().out
+    summary = json.loads(out.strip().splitlines()[-1])
+    assert summary["scene"] == "hard" and summary["clips"] == 1
+    assert summary["difficulties"] == {"forearm": False, "motion_blur": 0.2}
+    assert summary["centroid_error_mean"] is not None and set(summary["spotting"]) == {
+        "missed", "split"}
+    for bad, word in (("wind=1", "no such difficulty"), ("motion_blur=x", "takes a number"),
+                      ("motion_blur=3", "motion_blur must be")):
+        with pytest.raises(SystemExit):
+            bench.main(["--backend", "model", "--difficulty", bad])
+        assert word in capsys.readouterr().err
+
+
 def test_demo_accuracy_refuses_an_unreachable_scheduler():
     bench = load_script("demo_accuracy")
     with pytest.raises(SystemExit, match="cannot connect"):

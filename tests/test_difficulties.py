@@ -34,12 +34,15 @@ def test_the_easy_scene_is_todays_bit_for_bit(easy):
 
 @pytest.mark.parametrize("option", [dict(exposure_drift=0.3), dict(flicker=0.1),
                                     dict(motion_blur=1.0), dict(skin_tone=0.9),
+                                    dict(forearm=True), dict(clutter=True),
+                                    dict(defocus=1.5), dict(hand_scale=1.15),
                                     dict(misaligned=True)])
 def test_each_difficulty_changes_frames_not_truth(easy, option):
     hard = clip_of(**option)
     assert not np.array_equal(hard.left, easy.left)
-    np.testing.assert_array_equal(hard.hand_xy, easy.hand_xy)
-    np.testing.assert_array_equal(hard.hand_area, easy.hand_area)
+    if "hand_scale" not in option:            # a larger hand has another centroid and area
+        np.testing.assert_array_equal(hard.hand_xy, easy.hand_xy)
+        np.testing.assert_array_equal(hard.hand_area, easy.hand_area)
     assert hard.renderer["difficulties"] == Difficulties(**option).as_dict()
     again = clip_of(**option)
     assert np.array_equal(again.left, hard.left) and np.array_equal(again.right, hard.right)
@@ -111,6 +114,8 @@ def test_misaligned_cameras_are_undone_by_the_rigs_calibration(easy):
     *[(dict({field: lo - 0.01}), field) for field, (lo, hi) in RANGES.items()],
     (dict(motion_blur=float("nan")), "motion_blur"),
     (dict(misaligned=1), "misaligned"),
+    (dict(forearm="yes"), "forearm"),
+    (dict(intruder=None), "intruder"),
 ])
 def test_bad_values_name_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):
@@ -127,10 +132,111 @@ def test_cli_render_with_difficulties(tmp_path, capsys):
     clip = json.loads((out / "clip.json").read_text())
     assert clip["renderer"]["difficulties"] == {"exposure_drift": 0.1, "flicker": 0.02,
                                                 "motion_blur": 0.5, "skin_tone": -0.5,
-                                                "misaligned": True}
+                                                "forearm": False, "clutter": False,
+                                                "intruder": False, "defocus": 0.0,
+                                                "hand_scale": 1.0, "misaligned": True}
     capsys.readouterr()
     assert cli.main(["render", "--gesture", "stop", "-o", str(tmp_path / "d"),
                      "--motion-blur", "2"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--motion-blur must be a number in [0, 1]" in err
     assert not (tmp_path / "d").exists()
+
+
+def test_forearm_slopes_through_the_band_and_is_seen_by_both_cameras():
+    from sim.render import LAYER_LABELS, RIGHT_Y_GAIN, RIGHT_Y_OFFSET
+    scene = StereoScene("stop", 4, 320, 240, noise=False,
+                        difficulties=Difficulties(forearm=True))
+    frame = scene.motion_span[0] + 5
+    labels = scene.label_map(frame)
+    arm = labels == LAYER_LABELS["forearm"]
+    disparity = scene.disparity_map(frame)
+    values = np.unique(disparity[arm])
+    hand, torso = scene.disparities["hand"], scene.disparities["torso"]
+    assert values.max() == hand - 1 and values.min() > torso and len(values) >= 4
+    assert ((values > 33) & (values < 46)).any() and (values <= 33).any()
+    assert not (arm & scene.hand_mask(frame)).any()
+    # a forearm pixel of the left view appears d pixels to the left in the right view
+    left, right = scene.views444(frame)
+    right_labels = scene.label_map(frame, "right")
+    ys, xs = np.nonzero(arm)
+    d = disparity[ys, xs].astype(int)
+    seen = right_labels[ys, xs - d] == LAYER_LABELS["forearm"]
+    assert seen.mean() > 0.9
+    expected = np.clip(np.rint(RIGHT_Y_GAIN * left[0][ys, xs].astype(float) + RIGHT_Y_OFFSET),
+                       0, 255)
+    assert np.abs(right[0][ys[seen], (xs - d)[seen]] - expected[seen]).max() <= 1
+    # the truth is the hand alone
+    easy = StereoScene("stop", 4, 320, 240, noise=False)
+    assert scene.hand_truth(frame) == easy.hand_truth(frame)
+
+
+def test_clutter_passes_the_skin_box_outside_the_band():
+    from sim.render import LAYER_LABELS
+    scene = StereoScene("left", 6, 320, 240, noise=False, difficulties=Difficulties(clutter=True))
+    y, cb, cr = scene.views444(0)[0]
+    clutter = scene.label_map(0) == LAYER_LABELS["clutter"]
+    assert clutter.sum() > 2000
+    assert skin_mask(cb, cr)[clutter].mean() > 0.95
+    d = scene.disparity_map(0)[clutter]
+    assert ((d <= 33) | (d >= 46)).all()
+
+
+def test_intruder_rolls_in_and_out_inside_the_band_clear_of_the_hand():
+    from sim.render import LAYER_LABELS
+    scene = StereoScene("forward", 2, 320, 240, noise=False,
+                        difficulties=Difficulties(intruder=True))
+    seen = []
+    for n in range(scene.frames):
+        ball = scene.label_map(n) == LAYER_LABELS["intruder"]
+        seen.append(int(ball.sum()))
+        if ball.any():
+            assert not (ball & scene.hand_mask(n)).any()
+            assert set(np.unique(scene.disparity_map(n)[ball])) == {scene.disparities["hand"] - 2}
+    seen = np.array(seen)
+    assert seen[0] == 0 or seen[-1] == 0
+    assert 0.1 < (seen > 0).mean() < 0.5 and seen.max() > 500
+
+
+def test_defocus_blurs_everything_but_the_hand():
+    sharp = StereoScene("stop", 2, 320, 240, noise=False)
+    soft = StereoScene("stop", 2, 320, 240, noise=False, difficulties=Difficulties(defocus=2.0))
+    a, b = sharp.views444(0)[0][0].astype(int), soft.views444(0)[0][0].astype(int)
+    hand = sharp.hand_mask(0)
+    assert np.array_equal(a[hand], b[hand])
+    background = sharp.label_map(0) == 0
+    assert np.abs(np.diff(b, axis=1))[background[:, 1:]].mean() < \
+        0.7 * np.abs(np.diff(a, axis=1))[background[:, 1:]].mean()
+
+
+def test_hand_scale_scales_the_hand():
+    areas = [StereoScene("stop", 2, 320, 240, difficulties=Difficulties(hand_scale=k))
+             .hand_truth(0)[2] for k in (0.8, 1.0, 1.2)]
+    assert areas[0] < areas[1] < areas[2]
+    assert abs(areas[2] / areas[1] - 1.44) < 0.12 and abs(areas[0] / areas[1] - 0.64) < 0.08
+
+
+def test_presets():
+    from sim.difficulties import HARD, HARD_PERSON, preset
+    assert preset("easy", 3) == Difficulties()
+    hard = [preset("hard", seed) for seed in (1, 2, 1)]
+    assert hard[0] == hard[2] and hard[0] != hard[1]
+    for d in hard:
+        assert all(getattr(d, k) == v for k, v in HARD.items()) and not d.misaligned
+        for name, (lo, hi) in HARD_PERSON.items():
+            assert lo <= getattr(d, name) <= hi
+    with pytest.raises(ValueError, match="scene must be one of easy, hard"):
+        preset("medium", 1)
+
+
+def test_cli_scene_preset_and_overrides(tmp_path):
+    import json
+    from sim.difficulties import preset
+    out = tmp_path / "c"
+    assert cli.main(["render", "--gesture", "stop", "--seed", "4", "--width", "160",
+                     "--height", "120", "-o", str(out), "--scene", "hard",
+                     "--motion-blur", "0", "--misaligned"]) == 0
+    got = json.loads((out / "clip.json").read_text())["renderer"]["difficulties"]
+    expected = preset("hard", 4).as_dict()
+    expected.update(motion_blur=0.0, misaligned=True)
+    assert got == expected

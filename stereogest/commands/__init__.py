@@ -50,6 +50,51 @@ def load_rectification(args, width: int, height: int):
         raise ValueError(f"--calibration: {exc}") from None
 
 
+def add_scene_options(parser) -> None:
+    """``--scene`` and one option per scene difficulty (:mod:`sim.difficulties`),
+    worded once for ``render`` and ``demo``."""
+    from sim.difficulties import RANGES, SCENES
+    hard = parser.add_argument_group(
+        "scene difficulties (sim/difficulties.py); each option overrides the --scene's value")
+    hard.add_argument("--scene", choices=SCENES, default="easy",
+                      help="easy: today's scene; hard: every difficulty but --misaligned, "
+                           "the person's skin tone and hand size drawn from the seed")
+    for name, text in (("exposure_drift", "each camera's gain wanders by up to this "
+                                          "fraction over the clip"),
+                       ("flicker", "and jitters by up to this fraction per frame"),
+                       ("motion_blur", "fraction of the frame interval the shutter is open"),
+                       ("skin_tone", "hand tone from the default (0) to the skin box's "
+                                     "edges (-1, +1)"),
+                       ("defocus", "blur of all but the hand, sigma per 10 px of "
+                                   "disparity from it"),
+                       ("hand_scale", "hand size factor")):
+        lo, hi = RANGES[name]
+        hard.add_argument("--" + name.replace("_", "-"), dest=name, type=float, default=None,
+                          metavar="F", help=f"{text}, {lo:g}..{hi:g}")
+    for name, text in (("forearm", "a bare forearm joined to the wrist, partly inside the "
+                                   "band"),
+                       ("clutter", "a wooden board and a second face (skin-toned, outside "
+                                   "the band)"),
+                       ("intruder", "a skin-coloured ball at the hand's depth rolls in and "
+                                    "out"),
+                       ("misaligned", "seen by the cameras of the default misaligned rig "
+                                      "(sim.calibration.StereoRig; undo with its "
+                                      "--calibration)")):
+        hard.add_argument("--" + name, dest=name, action="store_true", default=None, help=text)
+
+
+def scene_difficulties(args):
+    """The --scene preset for --seed, with every difficulty option given on top."""
+    import dataclasses
+
+    from sim.difficulties import RANGES, SWITCHES, preset
+    from sim.model.validation import check_int
+    check_int("--seed", args.seed, 0, 2 ** 63 - 1)
+    given = {name: getattr(args, name) for name in (*RANGES, *SWITCHES)
+             if getattr(args, name, None) is not None}
+    return dataclasses.replace(preset(args.scene, args.seed), **given)
+
+
 def add_json_switch(parser, always: bool = False) -> None:
     """``--json``, the same switch on every command that prints a result: the
     result as one JSON document on the last line of stdout. ``always``: the

@@ -59,8 +59,9 @@ def add_arguments(p):
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    from stereogest.commands import add_calibration_options
+    from stereogest.commands import add_calibration_options, add_scene_options
     add_calibration_options(p)
+    add_scene_options(p)
     add_json_switch(p, always=True)
 
 
@@ -82,6 +83,12 @@ def run(args) -> int:
     # Every option checked before anything is created or rendered.
     if args.threads is not None:
         check_int("--threads", args.threads, 1, 64)
+    from stereogest.commands import scene_difficulties
+    difficulties = scene_difficulties(args)
+    if args.clip is not None and difficulties.any:
+        raise ValueError("--scene and the difficulty options apply to a rendered clip, not "
+                         "to --clip")
+    args.difficulties = difficulties
     if args.clip is None:
         check_int("--seed", args.seed, 0, 2 ** 63 - 1)
         for option, value, (lo, hi) in (("--width", args.width, WIDTH_RANGE),
@@ -123,7 +130,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               + (f", labelled {clip.gesture}" if clip.gesture else "") + motion)
     else:
         clip = render_clip(args.gesture, args.seed, args.width, args.height,
-                           n_pre_rest=None if args.pre_rest < 0 else args.pre_rest)
+                           n_pre_rest=None if args.pre_rest < 0 else args.pre_rest,
+                           difficulties=args.difficulties)
         if rectification is not None:
             # what the calibrated cameras would see of the rendered (aligned) view
             import dataclasses

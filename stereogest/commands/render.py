@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 
 from sim.gesture_shapes import GESTURE_NAMES
-from stereogest.commands import DEFAULT_SEED, add_json_switch
+from stereogest.commands import (DEFAULT_SEED, add_json_switch, add_scene_options,
+                                 scene_difficulties)
 
 NAME = "render"
 HELP = "render a synthetic stereo clip of one gesture"
@@ -39,21 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the rest and motion durations scale "
                              "with it (15-30 rest and 40-80 motion frames at 30 fps)")
-    from sim.difficulties import RANGES
-    hard = parser.add_argument_group("scene difficulties (sim/difficulties.py; all off: "
-                                     "the easy scene)")
-    for name, text in (("exposure_drift", "each camera's gain wanders by up to this "
-                                          "fraction over the clip"),
-                       ("flicker", "and jitters by up to this fraction per frame"),
-                       ("motion_blur", "fraction of the frame interval the shutter is open"),
-                       ("skin_tone", "hand tone from the default (0) to the skin box's "
-                                     "edges (-1, +1)")):
-        lo, hi = RANGES[name]
-        hard.add_argument("--" + name.replace("_", "-"), dest=name, type=float, default=0.0,
-                          metavar="F", help=f"{text}, {lo:g}..{hi:g}")
-    hard.add_argument("--misaligned", action="store_true",
-                      help="seen by the cameras of the default misaligned rig "
-                           "(sim.calibration.StereoRig; undo with its --calibration)")
+    add_scene_options(parser)
     add_json_switch(parser)
 
 
@@ -63,11 +50,7 @@ def run(args: argparse.Namespace) -> int:
     from sim.render import render_clip
     from stereogest.commands import check_clip_output
 
-    from sim.difficulties import Difficulties
-
-    difficulties = Difficulties(exposure_drift=args.exposure_drift, flicker=args.flicker,
-                                motion_blur=args.motion_blur, skin_tone=args.skin_tone,
-                                misaligned=args.misaligned)
+    difficulties = scene_difficulties(args)
     check_clip_output(args.output)
     clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps,
                        difficulties=difficulties)
