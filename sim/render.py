@@ -558,16 +558,21 @@ class StereoScene:
         if view == "right":
             luma = RIGHT_Y_GAIN * luma + RIGHT_Y_OFFSET
         ycc = np.stack([luma, np.full_like(luma, 102.0), np.full_like(luma, 152.0)])
-        layer = _Layer("intruder", d, y0, x0, mask, ycc)
-        region = self._view_region(layer, d if view == "right" else 0)
+        self._paste(_Layer("intruder", d, y0, x0, mask, ycc), image, plane, view, label)
+
+    def _paste(self, layer: _Layer, image, plane, view: str, label: bool) -> None:
+        """Draw a per-frame layer (its ``ycc`` already the ``view``'s) into ``image``
+        (3, H, W) uint8, or its disparity (with ``label``, its label) into ``plane``."""
+        region = self._view_region(layer, layer.disparity if view == "right" else 0)
         if region is None:
             return
         (vy, vx), (ly, lx) = region
-        m = mask[ly, lx]
+        m = layer.mask[ly, lx]
         if image is not None:
-            image[:, vy, vx] = np.where(m, _to_u8(ycc[:, ly, lx]), image[:, vy, vx])
+            image[:, vy, vx] = np.where(m, _to_u8(layer.ycc[:, ly, lx]), image[:, vy, vx])
         else:
-            plane[vy, vx] = np.where(m, LAYER_LABELS["intruder"] if label else d, plane[vy, vx])
+            value = layer.label if label else layer.disparity
+            plane[vy, vx] = np.where(m, value, plane[vy, vx])
 
     def _view_region(self, layer: _Layer, shift: int):
         """Slices of the view and of the layer where the layer (shifted by -shift) lands."""
@@ -777,17 +782,7 @@ class StereoScene:
                 right = ycc.copy()
                 right[0] = RIGHT_Y_GAIN * right[0] + RIGHT_Y_OFFSET
                 ycc = right
-            layer = _Layer("forearm", d, y0, x0, mask, ycc)
-            region = self._view_region(layer, d if view == "right" else 0)
-            if region is None:
-                continue
-            (vy, vx), (ly, lx) = region
-            m = mask[ly, lx]
-            if image is not None:
-                image[:, vy, vx] = np.where(m, _to_u8(ycc[:, ly, lx]), image[:, vy, vx])
-            else:
-                value = LAYER_LABELS["forearm"] if label else d
-                plane[vy, vx] = np.where(m, value, plane[vy, vx])
+            self._paste(_Layer("forearm", d, y0, x0, mask, ycc), image, plane, view, label)
 
     def _blur_anchors(self, frame: int) -> list:
         """Palm centres over the exposure: ``motion_blur`` of the frame interval
