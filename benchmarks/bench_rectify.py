@@ -39,28 +39,17 @@ DEVICE_M10K_BITS = 397 * 10240
 
 
 def remap_errors():
-    import cv2
-
-    from sim.evaluate import MISALIGNMENT
+    from sim.evaluate import MISALIGNMENT, remap_errors as errors_of
     from sim.images import read_grey
-    from sim.model.rectify import (compress_map, homography_maps, map_size, misalignment,
-                                   rectify, source_positions)
+    from sim.model.rectify import misalignment
     rows = []
     for scene in SCENES:
         image = read_grey(ROOT / "data" / "middlebury" / scene / "left.png")
         h, w = image.shape
         hom = misalignment(w, h, **MISALIGNMENT["left"])
-        full_x, full_y = homography_maps(hom, w, h)
-        oracle = cv2.remap(image, full_x, full_y, cv2.INTER_LINEAR,
-                           borderMode=cv2.BORDER_CONSTANT)
         for step in (4, 8, 16):
             for frac in (3, 4, 5, 6):
-                grid = compress_map(*homography_maps(hom, *map_size(w, h, step)), w, h,
-                                    grid_step=step, frac_bits=frac)
-                grey = np.abs(rectify(image, grid).astype(int)
-                              - oracle.astype(int))[4:-4, 4:-4]
-                sx, sy = source_positions(grid)
-                pos = np.hypot(sx / (1 << frac) - full_x, sy / (1 << frac) - full_y)
+                grey, pos = errors_of(image, hom, grid_step=step, frac_bits=frac)
                 rows.append({"scene": scene, "grid_step": step, "frac_bits": frac,
                              "grey_mean": round(float(grey.mean()), 3),
                              "grey_p99": float(np.percentile(grey, 99)),
@@ -102,6 +91,7 @@ def middlebury():
 def gestures(seeds: int, first_seed: int, width: int = 320, height: int = 240):
     from sim.calibration import (StereoRig, camera_frames, rig_calibration,
                                  stereo_rectification)
+    from sim.evaluate import track_errors
     from sim.model.pipeline import PipelineParams, run_clip
     from sim.render import render_clip
     from stereogest.pipeline_outputs import recognise, shipped_model_path
@@ -125,15 +115,9 @@ def gestures(seeds: int, first_seed: int, width: int = 320, height: int = 240):
                                                 ("rectified", (left, right), rect)):
                 start = time.process_time()
                 traj, _ = run_clip(*frames, params, threads=1, rectification=rectification)
-                seen = (traj.area > 0) & np.isfinite(truth[:, 0])
-                error = np.hypot(*(traj.centroid[seen] - truth[seen]).T) if seen.any() else []
                 recognised, _ = recognise(models, traj)
                 row[name] = {"recognised": recognised, "correct": recognised == gesture,
-                             "hand_frames": int(seen.sum()), "frames": clip.frames,
-                             "centroid_error_mean": round(float(np.mean(error)), 2)
-                             if len(error) else None,
-                             "centroid_error_p95": round(float(np.percentile(error, 95)), 2)
-                             if len(error) else None,
+                             **track_errors(truth, traj), "frames": clip.frames,
                              "cpu_seconds": round(time.process_time() - start, 1)}
             rows.append(row)
             print(f"  {gesture} {seed}: " + ", ".join(
@@ -161,18 +145,15 @@ def gestures(seeds: int, first_seed: int, width: int = 320, height: int = 240):
 
 
 def hardware_memory():
-    from hdl.rectify import Rectifier
+    from hdl.gesture_pipeline import GesturePipeline
     from sim.calibration import StereoRig, rig_calibration, stereo_rectification
+    from sim.model.pipeline import PipelineParams
     rect = stereo_rectification(rig_calibration(StereoRig()))
-    reach = rect.max_shift
-    total = 0
-    parts = {}
-    for side, grid, lanes in (("left", rect.left, 3), ("right", rect.right, 1)):
-        stage = Rectifier(640, 480, grid, lanes=lanes, max_shift_x=reach[0],
-                          max_shift_y=reach[1])
-        parts[side] = stage.memory_bits
-        total += sum(stage.memory_bits.values())
+    pipeline = GesturePipeline(640, 480, PipelineParams(), rectification=rect)
+    parts = {k: v for k, v in pipeline.memory_bits.items() if k.startswith("rectify")}
+    total = sum(parts.values())
     share = 100.0 * total / DEVICE_M10K_BITS
+    reach = rect.max_shift
     print(f"\nRectifier memory at 640x480 (default rig, reach {reach[0]} x {reach[1]} px): "
           f"{total:,} bits = {share:.1f} % of the 5CSEMA5's M10K bits; {parts}")
     return {"max_shift": list(reach), "bits": total, "m10k_share_pct": round(share, 2),

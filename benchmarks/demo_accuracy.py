@@ -55,16 +55,8 @@ def difficulties_of(scene, overrides, seed):
 
 def track_figures(clip, trajectory) -> dict:
     """Centroid error against the truth and the flagged spans of a clip."""
-    import numpy as np
-    truth = clip.hand_xy
-    seen = (trajectory.area > 0) & np.isfinite(truth[:, 0])
-    error = np.hypot(*(trajectory.centroid[seen] - truth[seen]).T) if seen.any() else None
-    flag = np.asarray(trajectory.flag, bool)
-    spans = int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
-    return {"centroid_error_mean": None if error is None else round(float(error.mean()), 2),
-            "centroid_error_p95": None if error is None
-            else round(float(np.percentile(error, 95)), 2),
-            "hand_frames": int(seen.sum()), "flag_spans": spans}
+    from sim.evaluate import track_errors
+    return track_errors(clip.hand_xy, trajectory)
 
 
 def one_clip(job):
@@ -166,12 +158,14 @@ def main(argv=None):
     ap.add_argument("--difficulty", action="append", default=[], metavar="NAME=VALUE",
                     help="one difficulty on top of the scene (repeatable), e.g. forearm=1")
     args = ap.parse_args(argv)
+    from sim.difficulties import RANGES, SWITCHES
     overrides = []
     for item in args.difficulty:
         name, _, value = item.partition("=")
-        from sim.difficulties import RANGES, SWITCHES
         if name in SWITCHES:
-            overrides.append((name, value not in ("0", "false", "False", "")))
+            if value not in ("0", "1"):
+                ap.error(f"--difficulty {item}: {name} takes 0 or 1")
+            overrides.append((name, value == "1"))
         elif name in RANGES:
             try:
                 overrides.append((name, float(value)))

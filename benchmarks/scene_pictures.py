@@ -39,9 +39,9 @@ def picture(gesture, seed, width, height, difficulties):
     scene = StereoScene(gesture, seed, width, height, difficulties=difficulties)
     first, last = scene.motion_span
     frame = first + (last - first) // 4          # moving fast (the middle is the turn)
-    if difficulties.intruder and scene._intruder is not None:
-        inside = np.flatnonzero(np.isfinite(scene._intruder[1]))
-        frame = int(inside[len(inside) // 2]) if inside.size else frame
+    inside = np.flatnonzero(scene.intruder_in_view)
+    if inside.size:                      # a frame with the ball in view
+        frame = int(inside[len(inside) // 2])
     left, right = scene.stereo_frame(frame)
     stages = process_frame(left, right, PipelineParams.for_frame(width))
     c = stages.centroid

@@ -276,11 +276,10 @@ class Rectifier(wiring.Component):
             src[axis] = value
         y_src = reg(y_w, "y5", 3)
         slot_out = Signal(slot_bits)
-        first_slot = (self.lag and (-(self.lag // w) - (1 if self.lag % w else 0))) % rows
+        first_slot = out.y0 % rows            # the row of the frame's first output beat
         with m.If(beat):
             with m.If(p.first):
-                m.d.sync += slot_out.eq(first_slot if out.x0 != w - 1
-                                        else (first_slot + 1) % rows)
+                m.d.sync += slot_out.eq((first_slot + (out.x0 == w - 1)) % rows)
             with m.Elif(out.x == w - 1):
                 m.d.sync += slot_out.eq(Mux(slot_out == rows - 1, 0, slot_out + 1))
         slot_r = reg(Mux(p.first, first_slot, slot_out), "slot7", 7)

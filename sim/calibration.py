@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from sim.model.rectify import (FRAC_BITS_RANGE, GRID_STEP_RANGE, StereoRectification,
-                               compress_map, map_size)
+from sim.model.rectify import StereoRectification, compress_map, map_size
 from sim.model.validation import check_int, check_number
 
 __all__ = ["FORMAT", "DEFAULT_PATTERN", "DEFAULT_SQUARE_MM", "StereoRig", "Calibration",
@@ -204,7 +203,6 @@ class Calibration:
     pairs: int = 0                  #: chessboard pairs used
     pattern: tuple = DEFAULT_PATTERN
     square: float = DEFAULT_SQUARE_MM
-    extra: dict = field(default_factory=dict)
 
     @property
     def baseline(self) -> float:
@@ -372,9 +370,7 @@ def stereo_rectification(calib: Calibration, width: int | None = None,
     if (width, height) != (calib.width, calib.height):
         raise ValueError(f"the calibration is for {calib.width}x{calib.height} frames, "
                          f"not {width}x{height}")
-    check_int("grid_step", grid_step, *GRID_STEP_RANGE)
-    check_int("frac_bits", frac_bits, *FRAC_BITS_RANGE)
-    size = map_size(width, height, grid_step)
+    size = map_size(width, height, grid_step)          # checks grid_step
     grids = []
     for k, d, r, p in ((calib.camera_left, calib.distortion_left, calib.R1, calib.P1),
                        (calib.camera_right, calib.distortion_right, calib.R2, calib.P2)):
@@ -394,49 +390,45 @@ def rig_calibration(rig: StereoRig) -> Calibration:
                        0.0)
 
 
-def camera_frames(frames, calib: Calibration, side: str):
-    """What ``side``'s camera of the calibrated rig sees of rectified frames: YCbCr
-    4:2:2 frames (F, H, 2W) rendered as the rectified view (the renderer's
-    cameras are perfectly aligned), each warped in 4:4:4 through the camera's
-    inverse rectification map (``cv2.initInverseRectificationMap``: lens
-    distortion, rotation, principal point), bilinear, black outside."""
+def _remap_frames(frames, map_x, map_y):
+    """YCbCr 4:2:2 frames (F, H, 2W), each channel of each frame resampled at
+    (``map_x``, ``map_y``) in 4:4:4 (bilinear, black outside), then 4:2:2 again."""
     import cv2
 
     from sim.model.ycbcr import ycbcr422_to_444, ycbcr444_to_422
-    if side not in ("left", "right"):
-        raise ValueError(f"side must be left or right, got {side!r}")
-    k, d, r, p = ((calib.camera_left, calib.distortion_left, calib.R1, calib.P1)
-                  if side == "left" else
-                  (calib.camera_right, calib.distortion_right, calib.R2, calib.P2))
-    size = (calib.width, calib.height)
-    inv_x, inv_y = cv2.initInverseRectificationMap(k, d, r, p, size, cv2.CV_32FC1)
     out = np.empty_like(np.asarray(frames))
     for n, frame in enumerate(frames):
         channels = ycbcr422_to_444(frame)
-        if channels[0].shape != (calib.height, calib.width):
-            raise ValueError(f"frames must be {calib.width}x{calib.height} (the calibration's)")
-        warped = [cv2.remap(np.ascontiguousarray(c), inv_x, inv_y, cv2.INTER_LINEAR,
+        if channels[0].shape != map_x.shape:
+            raise ValueError("frames must be {}x{} (the maps')".format(*map_x.shape[::-1]))
+        warped = [cv2.remap(np.ascontiguousarray(c), map_x, map_y, cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=fill)
                   for c, fill in zip(channels, (0, 128, 128))]
         out[n] = ycbcr444_to_422(*warped)
     return out
 
 
+def camera_frames(frames, calib: Calibration, side: str):
+    """What ``side``'s camera of the calibrated rig sees of rectified frames: YCbCr
+    4:2:2 frames (F, H, 2W) rendered as the rectified view (the renderer's
+    cameras are perfectly aligned), warped through the camera's inverse
+    rectification map (``cv2.initInverseRectificationMap``: lens distortion,
+    rotation, principal point)."""
+    import cv2
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be left or right, got {side!r}")
+    k, d, r, p = ((calib.camera_left, calib.distortion_left, calib.R1, calib.P1)
+                  if side == "left" else
+                  (calib.camera_right, calib.distortion_right, calib.R2, calib.P2))
+    inv_x, inv_y = cv2.initInverseRectificationMap(k, d, r, p, (calib.width, calib.height),
+                                                   cv2.CV_32FC1)
+    return _remap_frames(frames, inv_x, inv_y)
+
+
 def misalign_frames(frames, homography):
     """YCbCr 4:2:2 camera frames (F, H, 2W) as a camera misaligned by
     ``homography`` (rectified pixel -> camera pixel, as
-    :func:`sim.model.rectify.homography_maps` takes it) would have taken them:
-    each frame warped in 4:4:4 (bilinear, black outside), then 4:2:2 again."""
-    import cv2
-
-    from sim.model.ycbcr import ycbcr422_to_444, ycbcr444_to_422
-    out = np.empty_like(np.asarray(frames))
-    for n, frame in enumerate(frames):
-        channels = ycbcr422_to_444(frame)
-        h, w = channels[0].shape
-        warped = [cv2.warpPerspective(np.ascontiguousarray(c), np.asarray(homography, float),
-                                      (w, h), flags=cv2.INTER_LINEAR,
-                                      borderMode=cv2.BORDER_CONSTANT, borderValue=fill)
-                  for c, fill in zip(channels, (0, 128, 128))]
-        out[n] = ycbcr444_to_422(*warped)
-    return out
+    :func:`sim.model.rectify.homography_maps` takes it) would have taken them."""
+    from sim.model.rectify import homography_maps
+    h, w2 = np.shape(frames)[-2:]
+    return _remap_frames(frames, *homography_maps(np.linalg.inv(homography), w2 // 2, h))

@@ -5,7 +5,7 @@ import numpy as np
 
 from sim.model.validation import check_int, check_same_shape
 
-__all__ = ["score_disparity", "misaligned_scores", "MISALIGNMENT"]
+__all__ = ["score_disparity", "misaligned_scores", "MISALIGNMENT", "remap_errors", "track_errors"]
 
 
 def score_disparity(disparity, ground_truth, gt_scale: float, *, max_error: float = 1.0,
@@ -63,7 +63,8 @@ def misaligned_scores(left, right, ground_truth, gt_scale: float, *, matcher: di
     as a misaligned rig sees it (each camera warped by ``misalignment``, Lanczos,
     black outside), unrectified, rectified by the model's compressed maps and
     rectified by ``cv2.remap`` with the full float maps. ``matcher``: the
-    :func:`sim.model.stereo.stereo_match` parameters.
+    :func:`sim.model.stereo.stereo_match` parameters, ``census_window`` and
+    ``hamming_window`` among them.
 
     Every score counts the same pixels: known ground truth, and whose matching
     windows (radius Wc // 2 + Wh // 2) lie wholly in what both misaligned cameras
@@ -95,7 +96,7 @@ def misaligned_scores(left, right, ground_truth, gt_scale: float, *, matcher: di
         model.append(rectify(seen, grid, interpolation))
         oracle.append(cv2.remap(seen, *homography_maps(hom, w, h), cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_CONSTANT))
-    radius = matcher["census_window"] // 2 + matcher.get("hamming_window", 29) // 2
+    radius = matcher["census_window"] // 2 + matcher["hamming_window"] // 2
     inside = cv2.erode(inside.astype(np.uint8), np.ones((2 * radius + 1,) * 2, np.uint8),
                        borderValue=1).astype(bool)      # the frame's own edges stay
     truth = np.where(inside, ground_truth, 0)
@@ -107,3 +108,40 @@ def misaligned_scores(left, right, ground_truth, gt_scale: float, *, matcher: di
     return {"original": score(left, right), "unrectified": score(*cameras),
             "rectified": score(*model), "rectified_cv2": score(*oracle),
             "seen_pixels_pct": round(100.0 * float(inside.mean()), 2)}
+
+
+def remap_errors(image, homography, *, grid_step: int = 8, frac_bits: int = 5):
+    """The rectification model against its oracle, ``cv2.remap`` with the full float
+    maps of ``homography`` (bilinear, black outside): the absolute grey-level
+    errors away from the border (4 px) and each pixel's distance (pixels) from
+    the interpolated map's source position to the full map's."""
+    import cv2
+
+    from sim.model.rectify import (compress_map, homography_maps, map_size, rectify,
+                                   source_positions)
+    h, w = np.shape(image)
+    grid = compress_map(*homography_maps(homography, *map_size(w, h, grid_step)), w, h,
+                        grid_step=grid_step, frac_bits=frac_bits)
+    full_x, full_y = homography_maps(homography, w, h)
+    oracle = cv2.remap(np.ascontiguousarray(image, np.uint8), full_x, full_y, cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    grey = np.abs(rectify(image, grid).astype(int) - oracle.astype(int))[4:-4, 4:-4]
+    sx, sy = source_positions(grid)
+    one = 1 << frac_bits
+    return grey, np.hypot(sx / one - full_x, sy / one - full_y)
+
+
+def track_errors(truth_xy, trajectory) -> dict:
+    """A clip's tracking against its rendered truth: the centroid error (pixels;
+    mean and 95th percentile over the frames where both the truth and a hand
+    exist, None without such frames), those frames' count and the number of
+    flagged spans (0: the gesture was missed; 2 or more: split)."""
+    truth = np.asarray(truth_xy, float)
+    seen = (np.asarray(trajectory.area) > 0) & np.isfinite(truth[:, 0])
+    error = np.hypot(*(np.asarray(trajectory.centroid)[seen] - truth[seen]).T)
+    flag = np.asarray(trajectory.flag, bool)
+    spans = int(np.sum(flag[1:] & ~flag[:-1]) + (1 if flag.size and flag[0] else 0))
+    return {"centroid_error_mean": round(float(error.mean()), 2) if error.size else None,
+            "centroid_error_p95": round(float(np.percentile(error, 95)), 2)
+            if error.size else None,
+            "hand_frames": int(seen.sum()), "flag_spans": spans}

@@ -40,6 +40,7 @@ import functools
 import math
 from dataclasses import dataclass
 from statistics import NormalDist
+from typing import NamedTuple
 
 import numpy as np
 
@@ -169,11 +170,26 @@ def _rounded_gaussian_table(sigma: float) -> np.ndarray:
     return table
 
 
+def _right_luma(luma):
+    """The right camera's Y for the left camera's (its illumination difference)."""
+    return RIGHT_Y_GAIN * luma + RIGHT_Y_OFFSET
+
+
 def _to_u8(values: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(values), 0, 255).astype(np.uint8)
 
 
 # ----------------------------------------------------------------------------- layers
+
+class _Intruder(NamedTuple):
+    """The intruder ball: radius, centre x per frame (NaN out of view), centre y,
+    disparity and texture."""
+    radius: float
+    x: np.ndarray
+    y: float
+    disparity: int
+    texture: np.ndarray
+
 
 @dataclass
 class _Layer:
@@ -366,7 +382,7 @@ class StereoScene:
         self._sprite_mask = mask[top:bottom + 1, left:right + 1]
         sprite = ycc[:, top:bottom + 1, left:right + 1]
         right_sprite = sprite.copy()
-        right_sprite[0] = RIGHT_Y_GAIN * right_sprite[0] + RIGHT_Y_OFFSET
+        right_sprite[0] = _right_luma(right_sprite[0])
         self._sprite_left = _to_u8(sprite)
         self._sprite_right = _to_u8(right_sprite)
         # Offset of the sprite's top-left pixel from the palm centre.
@@ -459,7 +475,7 @@ class StereoScene:
                 labels[vy, vx] = np.where(mask, layer.label, labels[vy, vx])
                 disparity[vy, vx] = np.where(mask, layer.disparity, disparity[vy, vx])
             if view == "right":
-                image[0] = RIGHT_Y_GAIN * image[0] + RIGHT_Y_OFFSET
+                image[0] = _right_luma(image[0])
             self._static[view] = _to_u8(image)
             self._static_labels[view] = labels
             self._static_disparity[view] = disparity
@@ -538,10 +554,18 @@ class StereoScene:
         edge = -radius if side < 0 else self.width + radius + self.disparities["hand"]
         cx = edge - side * depth_in
         inside = (phase > 0) & (phase < 1)
-        self._intruder = (radius, np.where(inside, cx, np.nan), cy,
-                          max(0, self.disparities["hand"] - _INTRUDER_BELOW_HAND),
+        self._intruder = _Intruder(radius, np.where(inside, cx, np.nan), cy,
+                                   max(0, self.disparities["hand"] - _INTRUDER_BELOW_HAND),
                           _fractal(rng, int(2 * radius) + 3, int(2 * radius) + 3, s, (8, 3, 1),
                                    (6.0, 5.0, 3.0)))
+
+    @property
+    def intruder_in_view(self) -> np.ndarray:
+        """(frames,) bool: the frames in which the intruder ball is in the picture
+        (all False without one)."""
+        if self._intruder is None:
+            return np.zeros(self.frames, bool)
+        return np.isfinite(self._intruder.x)
 
     def _paste_intruder(self, image, plane, frame: int, view: str, label: bool = False):
         if self._intruder is None:
@@ -556,7 +580,7 @@ class StereoScene:
         mask = _ellipse(xs, ys, cx, cy, radius, radius) <= 1
         luma = 165 + texture - 25 * np.clip(_ellipse(xs, ys, cx, cy, radius, radius), 0, 1)
         if view == "right":
-            luma = RIGHT_Y_GAIN * luma + RIGHT_Y_OFFSET
+            luma = _right_luma(luma)
         ycc = np.stack([luma, np.full_like(luma, 102.0), np.full_like(luma, 152.0)])
         self._paste(_Layer("intruder", d, y0, x0, mask, ycc), image, plane, view, label)
 
@@ -780,7 +804,7 @@ class StereoScene:
         for d, mask, ycc, y0, x0 in self._forearm_segments(frame, anchor):
             if view == "right":
                 right = ycc.copy()
-                right[0] = RIGHT_Y_GAIN * right[0] + RIGHT_Y_OFFSET
+                right[0] = _right_luma(right[0])
                 ycc = right
             self._paste(_Layer("forearm", d, y0, x0, mask, ycc), image, plane, view, label)
 

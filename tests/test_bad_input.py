@@ -338,6 +338,16 @@ CASES = [
                            (f"{IN}/calib640.json", "the calibration is for 640x480 frames")]],
     case("stereo", f"{TSUKUBA}/left.png", f"{TSUKUBA}/right.png", "-o", f"{OUT}/d.png",
          "--interpolation", "cubic", match="invalid choice: 'cubic'"),
+    *[case(*command, "--calibration", f"{IN}/calib640.json",
+           match="--calibration: the calibration is for 640x480 frames")
+      for command in (["demo", "--backend", "model", "--width", "320", "--height", "240",
+                       "-o", f"{OUT}/d"],
+                      ["resources", "--width", "320", "--height", "240"],
+                      ["timing", "--block", "rectify", "--width", "320", "--height", "240"])],
+    *[case(*command, "--calibration", f"{IN}/text.json",
+           match=f"--calibration: {IN}/text.json: not a calibration file")
+      for command in (["demo", "--backend", "model", "-o", f"{OUT}/d"], ["resources"],
+                      ["timing", "--block", "rectify"])],
 ]
 
 

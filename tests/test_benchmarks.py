@@ -97,7 +97,7 @@ def test_demo_accuracy_scene_and_difficulties(capsys):
     assert summary["centroid_error_mean"] is not None and set(summary["spotting"]) == {
         "missed", "split"}
     for bad, word in (("wind=1", "no such difficulty"), ("motion_blur=x", "takes a number"),
-                      ("motion_blur=3", "motion_blur must be")):
+                      ("motion_blur=3", "motion_blur must be"), ("forearm=yes", "0 or 1")):
         with pytest.raises(SystemExit):
             bench.main(["--backend", "model", "--difficulty", bad])
         assert word in capsys.readouterr().err

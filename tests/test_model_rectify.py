@@ -70,26 +70,11 @@ def test_homography_maps_equal_opencv():
     assert np.abs(mx - ref[..., 0]).max() < 1e-4 and np.abs(my - ref[..., 1]).max() < 1e-4
 
 
-def remap_errors(image, homography, grid_step, frac_bits):
-    """The model against cv2.remap on the full float maps: grey-level errors away
-    from the border, and the interpolated map's position error (pixels)."""
-    h, w = image.shape
-    grid = grid_of(homography, w, h, grid_step, frac_bits)
-    mx, my = homography_maps(homography, w, h)
-    ref = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                    borderValue=0)
-    got = rectify(image, grid)
-    sx, sy = source_positions(grid)
-    one = 1 << frac_bits
-    position = np.hypot(sx / one - mx, sy / one - my)
-    grey = np.abs(got.astype(int) - ref.astype(int))[4:-4, 4:-4]
-    return grey, position
-
-
 @pytest.mark.parametrize("scene", ["tsukuba", "cones"])
 def test_error_against_cv2_remap(scene):
     image = read_grey(MIDDLEBURY / scene / "left.png")
     h, w = image.shape
+    from sim.evaluate import remap_errors
     grey, position = remap_errors(image, rotation_homography(w, h, 0.8, 0.6, 1.7),
                                   grid_step=8, frac_bits=5)
     # OpenCV blends with 5-bit weights too: what is left is the map's rounding

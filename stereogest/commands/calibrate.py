@@ -34,17 +34,15 @@ def read_pairs(path):
     """The (left, right) grey pictures of PAIRS, and their names."""
     from pathlib import Path
 
-    import numpy as np
-
     from sim.clip import is_clip_dir, load_clip
     from sim.images import read_grey
+    from sim.model.ycbcr import ycbcr422_to_444
     path = Path(path)
     if not path.is_dir():
         raise ValueError(f"PAIRS: {path} is not a folder or a clip directory")
     if is_clip_dir(path):
         clip = load_clip(path)
-        # Y is every other byte of the 4:2:2 stream
-        return ([(np.ascontiguousarray(l[:, 0::2]), np.ascontiguousarray(r[:, 0::2]))
+        return ([(ycbcr422_to_444(l)[0], ycbcr422_to_444(r)[0])
                  for l, r in zip(clip.left, clip.right)],
                 [f"frame {k}" for k in range(clip.frames)])
     lefts = {p.name[len("left_"):]: p for p in sorted(path.glob("left_*.png"))}
