@@ -11,7 +11,7 @@ the application pops, the UART bytes against its telegram and the VGA frame.
 Run: ``python benchmarks/demo_accuracy.py [--width 320 --height 240]
 [--per-gesture 5] [--first-seed 2001] [--gesture NAME ...] [--jobs 2]
 [--scheduler ADDRESS] [--json FILE] [--backend model] [--scene easy|hard]
-[--difficulty NAME=VALUE ...]``
+[--difficulty NAME=VALUE ...] [--hand-tracking | --compare]``
 
 ``--scene`` and ``--difficulty`` (e.g. ``forearm=1``, ``motion_blur=0.5``) render
 the clips with the scene difficulties of :mod:`sim.difficulties` (the person's
@@ -20,7 +20,10 @@ recognised fraction every clip reports the centroid error against the rendered
 truth (mean and 95th percentile over the frames where both exist) and its
 flagged spans (0: the gesture was missed, 2 or more: split).
 (``--backend model``: the golden model, bit-exact with the hardware, instead of
-Verilator). The clips run on ``--jobs`` local processes or, with
+Verilator). ``--hand-tracking`` runs the pipeline with the centroid's hand
+tracking (:data:`sim.model.pipeline.HAND_TRACKING_640`); ``--compare`` (golden
+model only) runs every clip once up to the opening and reports both centroids,
+the thesis' and the hand tracking's. The clips run on ``--jobs`` local processes or, with
 ``--scheduler tcp://host:8786``, on the workers of a running Dask cluster; each
 worker builds (or reuses, from its build cache) the Verilated system itself, so
 remote workers need the project installed, not a shared disk. Prints a
@@ -34,6 +37,8 @@ import multiprocessing
 import time
 from contextlib import ExitStack
 from pathlib import Path
+
+import numpy as np
 
 GESTURES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
 
@@ -60,22 +65,26 @@ def track_figures(clip, trajectory) -> dict:
 
 
 def one_clip(job):
-    gesture, seed, width, height, backend, model, scene, overrides = job
+    """The rows of one clip: one per pipeline of ``tracking`` (False: the
+    thesis', True: with hand tracking)."""
+    gesture, seed, width, height, backend, model, scene, overrides, tracking = job
     difficulties = difficulties_of(scene, overrides, seed)
     if backend == "model":
-        return model_clip(gesture, seed, width, height, model, difficulties)
+        return model_clip(gesture, seed, width, height, model, difficulties, tracking)
+    (hand_tracking,) = tracking
     from sim.model.pipeline import PipelineParams
     from sim.render import render_clip
     from verif.end_to_end import clip_end_to_end
     from verif.system import build_system
 
     models = _models(model)
-    params = PipelineParams.for_frame(width)
+    params = PipelineParams.for_frame(width, hand_tracking=hand_tracking)
     exe = build_system(width, height, params)     # cached: built once per machine
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     clip = render_clip(gesture, seed, width, height, difficulties=difficulties)
     played, _, extra, result = clip_end_to_end(clip, models, params, threads=1, exe=exe)
-    return {"gesture": gesture, "seed": seed, "frames": clip.frames, "held": extra,
+    return [{"gesture": gesture, "seed": seed, "hand_tracking": hand_tracking,
+             "frames": clip.frames, "held": extra,
             **track_figures(clip, _first(played, clip.frames)),
             "recognised": result.recognised,
             "all_recognised": [r.get("class_name") for r in result.results
@@ -84,7 +93,8 @@ def one_clip(job):
             "fifo_matches_model": result.fifo_matches_model,
             "vga_mismatches": result.vga_mismatches,
             "uart_matches_telegram": result.uart_matches_telegram,
-            "cycles": result.cycles, "seconds": round(time.perf_counter() - start, 1)}
+            "cycles": result.cycles, "seconds": round(time.perf_counter() - start, 1),
+            "cpu_seconds": round(time.process_time() - cpu, 1)}]
 
 
 def _first(trajectory, frames):
@@ -93,27 +103,45 @@ def _first(trajectory, frames):
     return Trajectory(*(getattr(trajectory, f)[:frames] for f in Trajectory._fields))
 
 
-def model_clip(gesture, seed, width, height, model=None, difficulties=None):
+def model_clip(gesture, seed, width, height, model=None, difficulties=None,
+               tracking=(False,)):
     """The golden model instead of the hardware (bit-exact with it), the
-    application on a simulated FIFO, as ``stereogest demo --backend model``."""
-    from sim.model.pipeline import PipelineParams, run_clip
+    application on a simulated FIFO, as ``stereogest demo --backend model``; the
+    clip runs once up to the opening, then through the centroid of each
+    pipeline of ``tracking``."""
+    from sim.model.centroid import centroid
+    from sim.model.pipeline import PipelineParams, process_frame, track
     from sim.render import render_clip
     from sw_hps.simulated import run_on_trajectory
 
     models = _models(model)
-    params = PipelineParams.for_frame(width)
-    start = time.perf_counter()
+    variants = [PipelineParams.for_frame(width, hand_tracking=t) for t in tracking]
+    start, cpu = time.perf_counter(), time.process_time()
     clip = render_clip(gesture, seed, width, height, difficulties=difficulties)
-    trajectory, _ = run_clip(clip.left, clip.right, params, threads=1)
-    board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
-                              trajectory.flag, pixels=False)
-    return {"gesture": gesture, "seed": seed, "frames": clip.frames, "held": 0,
-            **track_figures(clip, trajectory),
-            "recognised": board.recognised[-1] if board.recognised else None,
-            "all_recognised": board.recognised,
-            "telegram": board.telegrams[-1].hex(" ") if board.telegrams else "",
-            "fifo_matches_model": None, "vga_mismatches": None, "uart_matches_telegram": None,
-            "cycles": 0, "seconds": round(time.perf_counter() - start, 1)}
+    centroids = [[] for _ in variants]
+    for n in range(clip.frames):
+        opened = process_frame(clip.left[n], clip.right[n], variants[0], threads=1).opened
+        for params, found in zip(variants, centroids):
+            found.append(centroid(opened, previous=found[-1] if found else None,
+                                  track_gate=params.track_gate, hand_rows=params.hand_rows))
+    seconds = round(time.perf_counter() - start, 1)
+    cpu_seconds = round(time.process_time() - cpu, 1)
+    rows = []
+    for hand_tracking, params, found in zip(tracking, variants, centroids):
+        found = np.array(found, np.int64).reshape(-1, 3)
+        trajectory = track(found[:, :2], found[:, 2], params)
+        board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
+                                  trajectory.flag, pixels=False)
+        rows.append({"gesture": gesture, "seed": seed, "hand_tracking": hand_tracking,
+                     "frames": clip.frames, "held": 0,
+                     **track_figures(clip, trajectory),
+                     "recognised": board.recognised[-1] if board.recognised else None,
+                     "all_recognised": board.recognised,
+                     "telegram": board.telegrams[-1].hex(" ") if board.telegrams else "",
+                     "fifo_matches_model": None, "vga_mismatches": None,
+                     "uart_matches_telegram": None, "cycles": 0, "seconds": seconds,
+                     "cpu_seconds": cpu_seconds})
+    return rows
 
 
 def _run(jobs, processes, scheduler):
@@ -157,7 +185,15 @@ def main(argv=None):
                     help="scene difficulties (sim/difficulties.py)")
     ap.add_argument("--difficulty", action="append", default=[], metavar="NAME=VALUE",
                     help="one difficulty on top of the scene (repeatable), e.g. forearm=1")
+    pipeline = ap.add_mutually_exclusive_group()
+    pipeline.add_argument("--hand-tracking", action="store_true",
+                          help="the centroid's hand tracking on (PipelineParams.for_frame)")
+    pipeline.add_argument("--compare", action="store_true",
+                          help="(--backend model) the thesis' centroid and the hand "
+                               "tracking's on the same clips")
     args = ap.parse_args(argv)
+    if args.compare and args.backend != "model":
+        ap.error("--compare needs --backend model")
     from sim.difficulties import RANGES, SWITCHES
     overrides = []
     for item in args.difficulty:
@@ -186,62 +222,80 @@ def main(argv=None):
     from verif.system import build_system
 
     start = time.perf_counter()
+    tracking = (False, True) if args.compare else (args.hand_tracking,)
     hardware = args.backend == "verilator"
     if hardware and args.scheduler is None:
         print(f"building the Verilated system at {args.width}x{args.height} ...", flush=True)
-        build_system(args.width, args.height, PipelineParams.for_frame(args.width))
+        build_system(args.width, args.height,
+                     PipelineParams.for_frame(args.width, hand_tracking=args.hand_tracking))
     gestures = args.gesture or GESTURES
     jobs = [(g, args.first_seed + k, args.width, args.height, args.backend, args.model,
-             args.scene, tuple(overrides))
+             args.scene, tuple(overrides), tracking)
             for k in range(args.per_gesture) for g in gestures]
     rows = []
-    print("| gesture | seed | frames | recognised | centroid error mean / p95 (px) | "
-          "flagged spans | FIFO = model | VGA = model | UART = telegram | s |\n"
-          "|---|---|---|---|---|---|---|---|---|---|", flush=True)
-    for row in _run(jobs, args.jobs, args.scheduler):
-        rows.append(row)
-        vga = None if row["vga_mismatches"] is None else row["vga_mismatches"] == 0
-        checks = [row["fifo_matches_model"], vga, row["uart_matches_telegram"]]
-        print(f"| {row['gesture']} | {row['seed']} | {row['frames']}+{row['held']} | "
-              f"{row['recognised']} | {row['centroid_error_mean']} / "
-              f"{row['centroid_error_p95']} | {row['flag_spans']} | "
-              + " | ".join("-" if c is None else str(c) for c in checks)
-              + f" | {row['seconds']} |", flush=True)
+    print("| gesture | seed | pipeline | frames | recognised | centroid error mean / p95 (px) "
+          "| flagged spans | FIFO = model | VGA = model | UART = telegram | CPU s |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    for clip_rows in _run(jobs, args.jobs, args.scheduler):
+        for row in clip_rows:
+            rows.append(row)
+            vga = None if row["vga_mismatches"] is None else row["vga_mismatches"] == 0
+            checks = [row["fifo_matches_model"], vga, row["uart_matches_telegram"]]
+            print(f"| {row['gesture']} | {row['seed']} | {_pipeline_name(row['hand_tracking'])} "
+                  f"| {row['frames']}+{row['held']} | "
+                  f"{row['recognised']} | {row['centroid_error_mean']} / "
+                  f"{row['centroid_error_p95']} | {row['flag_spans']} | "
+                  + " | ".join("-" if c is None else str(c) for c in checks)
+                  + f" | {row['cpu_seconds']} |", flush=True)
     wall = time.perf_counter() - start
-    correct = sum(r["recognised"] == r["gesture"] and r["all_recognised"] == [r["gesture"]]
-                  for r in rows)
-    exact = None
-    check = "golden model only, no hardware check"
-    if hardware:
-        exact = all(r["fifo_matches_model"] and r["vga_mismatches"] == 0
-                    and r["uart_matches_telegram"] for r in rows)
-        check = f"hardware = golden model on every clip: {exact}"
-    print(f"\nrecognised {correct} of {len(rows)} clips ({100 * correct / len(rows):.1f} %), "
-          f"{check}; wall time {wall / 60:.1f} min with "
-          + (f"the cluster at {args.scheduler}" if args.scheduler else f"{args.jobs} jobs"))
-    import numpy as np
-    means = [r["centroid_error_mean"] for r in rows if r["centroid_error_mean"] is not None]
-    p95s = [r["centroid_error_p95"] for r in rows if r["centroid_error_p95"] is not None]
-    spotting = {"missed": sum(r["flag_spans"] == 0 for r in rows),
-                "split": sum(r["flag_spans"] > 1 for r in rows)}
-    print(f"centroid error: mean {np.mean(means):.2f} px, 95th percentile (mean over clips) "
-          f"{np.mean(p95s):.2f} px; spotting: {spotting['missed']} missed, "
-          f"{spotting['split']} split")
     summary = {"backend": args.backend, "width": args.width, "height": args.height,
                "scene": args.scene, "difficulties": dict(overrides),
-               "centroid_error_mean": round(float(np.mean(means)), 2) if means else None,
-               "centroid_error_p95": round(float(np.mean(p95s)), 2) if p95s else None,
-               "spotting": spotting,
-               "clips": len(rows),
-               "correct": correct, "accuracy": correct / len(rows),
-               "hardware_exact": exact,
+               "clips": len(jobs), "cpu_seconds": round(sum(
+                   r["cpu_seconds"] for r in rows if r["hand_tracking"] == tracking[0]), 1),
                "wall_seconds": round(wall, 1), "jobs": args.jobs,
-               "scheduler": args.scheduler,
-               "rows": sorted(rows, key=lambda r: (GESTURES.index(r["gesture"]), r["seed"]))}
+               "scheduler": args.scheduler}
+    print()
+    for hand_tracking in tracking:
+        mine = [r for r in rows if r["hand_tracking"] == hand_tracking]
+        figures = summarise(mine, hardware)
+        summary[_pipeline_name(hand_tracking)] = figures
+        print(f"{_pipeline_name(hand_tracking)}: recognised {figures['correct']} of "
+              f"{figures['clips']} clips ({100 * figures['accuracy']:.1f} %); centroid error "
+              f"mean {figures['centroid_error_mean']} px, 95th percentile (mean over clips) "
+              f"{figures['centroid_error_p95']} px; spotting: {figures['spotting']['missed']} "
+              f"missed, {figures['spotting']['split']} split"
+              + (f"; hardware = golden model on every clip: {figures['hardware_exact']}"
+                 if hardware else ""))
+    print(f"{'hardware and golden model' if hardware else 'golden model only'}; "
+          f"{summary['cpu_seconds']} CPU s, wall time {wall / 60:.1f} min with "
+          + (f"the cluster at {args.scheduler}" if args.scheduler else f"{args.jobs} jobs"))
+    summary["rows"] = sorted(rows, key=lambda r: (GESTURES.index(r["gesture"]), r["seed"],
+                                                  r["hand_tracking"]))
     if args.json:
         Path(args.json).write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps({k: v for k, v in summary.items() if k != "rows"}))
-    return 0 if correct == len(rows) else 1
+    return 0 if all(summary[_pipeline_name(t)]["accuracy"] == 1 for t in tracking) else 1
+
+
+def _pipeline_name(hand_tracking: bool) -> str:
+    return "hand tracking" if hand_tracking else "thesis"
+
+
+def summarise(rows, hardware: bool) -> dict:
+    """Recognised fraction, centroid error and spotting errors of some clips'
+    rows (one pipeline's)."""
+    correct = sum(r["recognised"] == r["gesture"] and r["all_recognised"] == [r["gesture"]]
+                  for r in rows)
+    means = [r["centroid_error_mean"] for r in rows if r["centroid_error_mean"] is not None]
+    p95s = [r["centroid_error_p95"] for r in rows if r["centroid_error_p95"] is not None]
+    return {"clips": len(rows), "correct": correct, "accuracy": correct / len(rows),
+            "centroid_error_mean": round(float(np.mean(means)), 2) if means else None,
+            "centroid_error_p95": round(float(np.mean(p95s)), 2) if p95s else None,
+            "spotting": {"missed": sum(r["flag_spans"] == 0 for r in rows),
+                         "split": sum(r["flag_spans"] > 1 for r in rows)},
+            "hardware_exact": all(r["fifo_matches_model"] and r["vga_mismatches"] == 0
+                                  and r["uart_matches_telegram"] for r in rows)
+            if hardware else None}
 
 
 if __name__ == "__main__":

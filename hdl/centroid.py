@@ -7,6 +7,13 @@ the frame's last pixel starts two :class:`~hdl.divider.UnsignedDivider` in
 parallel, ``x = M10 // M00`` and ``y = M01 // M00`` (eq. 24); they latch the
 moments, so the accumulators are free for the next frame at once, and finish
 long before that frame ends.
+
+Hand tracking (``track_gate``, ``hand_rows``; off by default, see
+:mod:`sim.model.centroid`) decides per beat whether a pixel counts: the gate's
+bounds are registers loaded from each output beat (the whole frame after reset or
+a frame without hand), the row limit a register loaded at the frame's first
+counted pixel. The next frame's first pixel must therefore come after the output
+beat, which the pipeline's flush beats guarantee (``GesturePipeline`` checks).
 """
 from __future__ import annotations
 
@@ -14,7 +21,8 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.centroid import moment_widths
+from sim.model.centroid import HAND_ROWS_RANGE, TRACK_GATE_RANGE, moment_widths
+from sim.model.validation import check_int
 
 from ._util import bits_for, check_geometry
 from .divider import UnsignedDivider, divider_cycles
@@ -24,17 +32,19 @@ from .streams import pixel_signature
 __all__ = ["Centroid", "centroid_cycles_after_frame"]
 
 
-def centroid_cycles_after_frame(width: int, height: int) -> int:
+def centroid_cycles_after_frame(width: int, height: int, tracking: bool = False) -> int:
     """Clock cycles from the frame's last pixel beat to the centroid's beat: one
-    to see the beat, the wider division, one output register."""
+    to see the beat, the wider division, one output register; one more with
+    hand tracking (its decision's register)."""
     widths = moment_widths(width, height)
-    return divider_cycles(max(widths.m10, widths.m01)) + 2
+    return divider_cycles(max(widths.m10, widths.m01)) + 2 + bool(tracking)
 
 
 class Centroid(wiring.Component):
     """One centroid ``(x, y, area)`` per frame of a binary mask stream.
 
-    Equal to :func:`sim.model.centroid.centroid` of the frame's mask:
+    Equal to :func:`sim.model.centroid.centroid` of the frame's mask (with the
+    previous output as ``previous``):
     ``x = M10 // M00``, ``y = M01 // M00``, ``area = M00``; an empty mask gives
     (0, 0, 0). Accumulator widths are :func:`sim.model.centroid.moment_widths`.
 
@@ -42,6 +52,12 @@ class Centroid(wiring.Component):
     ----------
     width : int in [8, 4096]
     height : int in [2, 4096]
+    track_gate : int in [0, 4095]
+        Hand tracking's gate half-size in pixels around the previous frame's
+        centroid; 0 (the thesis) counts the whole frame.
+    hand_rows : int in [0, 4096]
+        Hand tracking's rows counted from the first counted pixel's row; 0 (the
+        thesis) counts every row.
 
     Ports
     -----
@@ -59,17 +75,21 @@ class Centroid(wiring.Component):
     cycles_after_frame : int
         ``dividend_bits + 3`` with ``dividend_bits = max(M10, M01 widths)``: one
         cycle to see the last pixel's beat, the divider's ``cycles``, one output
-        register.
+        register; one more with hand tracking.
     widths : MomentWidths
         Accumulator widths.
     """
 
-    def __init__(self, width: int, height: int):
+    def __init__(self, width: int, height: int, *, track_gate: int = 0, hand_rows: int = 0):
         self.width, self.height = check_geometry(width, height)
+        self.track_gate = check_int("track_gate", track_gate, *TRACK_GATE_RANGE)
+        self.hand_rows = check_int("hand_rows", hand_rows, *HAND_ROWS_RANGE)
         self.widths = moment_widths(self.width, self.height)
         self._div_x = UnsignedDivider(dividend_bits=self.widths.m10, divisor_bits=self.widths.m00)
         self._div_y = UnsignedDivider(dividend_bits=self.widths.m01, divisor_bits=self.widths.m00)
-        self.cycles_after_frame = centroid_cycles_after_frame(self.width, self.height)
+        self.tracking = bool(self.track_gate or self.hand_rows)
+        self.cycles_after_frame = centroid_cycles_after_frame(self.width, self.height,
+                                                              self.tracking)
         # The dividers latch the moments on the start; the next start (one frame
         # later) must find them idle, so a frame must outlast a division.
         if self.width * self.height <= self.cycles_after_frame:
@@ -97,12 +117,23 @@ class Centroid(wiring.Component):
         m00 = Signal(self.widths.m00)
         m10 = Signal(self.widths.m10)
         m01 = Signal(self.widths.m01)
-        y = pos.y[:self.y_bits]  # inside the frame y >= 0
+        x = pos.x[:self.x_bits]  # inside the frame 0 <= x < width
+        y = pos.y[:self.y_bits]
+        first, count = p.first, p.pixel
+        if self.tracking:
+            # The decision gets a register stage of its own, so that the
+            # comparisons are not in front of the adders (one cycle later).
+            decided = [Signal.like(v, name=f"{name}_decided") for name, v in
+                       (("beat", beat), ("first", first), ("count", count), ("x", x),
+                        ("y", y), ("last", is_last))]
+            m.d.sync += [d.eq(v) for d, v in zip(decided, (
+                beat, first, self._counted(m, beat, first, count, x, y), x, y, is_last))]
+            beat, first, count, x, y, is_last = decided
         with m.If(beat):
             m.d.sync += [
-                m00.eq(Mux(p.first, 0, m00) + p.pixel),
-                m10.eq(Mux(p.first, 0, m10) + Mux(p.pixel, pos.x, 0)),
-                m01.eq(Mux(p.first, 0, m01) + Mux(p.pixel, y, 0)),
+                m00.eq(Mux(first, 0, m00) + count),
+                m10.eq(Mux(first, 0, m10) + Mux(count, x, 0)),
+                m01.eq(Mux(first, 0, m01) + Mux(count, y, 0)),
             ]
         # The cycle after the last pixel's beat the accumulators hold the frame's
         # moments (even if the next frame's first beat overwrites them at the end
@@ -127,4 +158,43 @@ class Centroid(wiring.Component):
             out.y.eq(Mux(empty, 0, div_y.quotient)),
             out.area.eq(area),
         ]
+        if self.track_gate:
+            self._update_gate(m)
         return m
+
+    def _counted(self, m, beat, first, pixel, x, y):
+        """Whether the beat's pixel counts (hand tracking; ``pixel`` without it)."""
+        count = pixel
+        if self.track_gate:
+            self._bounds = [Signal(self.x_bits, name="gate_x_lo"),
+                            Signal(self.x_bits, name="gate_x_hi", init=self.width - 1),
+                            Signal(self.y_bits, name="gate_y_lo"),
+                            Signal(self.y_bits, name="gate_y_hi", init=self.height - 1)]
+            x_lo, x_hi, y_lo, y_hi = self._bounds
+            count = count & (x >= x_lo) & (x <= x_hi) & (y >= y_lo) & (y <= y_hi)
+        if self.hand_rows:
+            seen = Signal()        # a pixel of this frame has counted
+            row_end = Signal(bits_for(self.height + self.hand_rows))
+            fresh = first | ~seen
+            count = count & (fresh | (y < row_end))
+            with m.If(beat):
+                with m.If(count & fresh):
+                    m.d.sync += [seen.eq(1), row_end.eq(y + self.hand_rows)]
+                with m.Elif(first):
+                    m.d.sync += seen.eq(0)
+        return count
+
+    def _update_gate(self, m):
+        """Load the gate from the output beat: the square around the centroid,
+        clipped to the frame, or the whole frame when there was no hand."""
+        r, out = self.track_gate, self.o_stream.payload
+        x_lo, x_hi, y_lo, y_hi = self._bounds
+        with m.If(self.o_stream.valid):
+            with m.If(out.area == 0):
+                m.d.sync += [x_lo.eq(0), x_hi.eq(self.width - 1),
+                             y_lo.eq(0), y_hi.eq(self.height - 1)]
+            with m.Else():
+                for lo, hi, c, top in ((x_lo, x_hi, out.x, self.width - 1),
+                                       (y_lo, y_hi, out.y, self.height - 1)):
+                    m.d.sync += [lo.eq(Mux(c > r, c - r, 0)),
+                                 hi.eq(Mux(c + r < top, c + r, top))]

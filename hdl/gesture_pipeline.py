@@ -111,8 +111,14 @@ def pipeline_timing(width: int, height: int, params: PipelineParams = PipelinePa
     if flush > OVERRUN_ROWS * width:
         raise ValueError(f"the windows look {flush} beats ahead, more than "
                          f"{OVERRUN_ROWS} rows of width {width}: use smaller windows")
+    centroid_cycles = centroid_cycles_after_frame(width, height, params.hand_tracking)
+    # A frame's first pixel reaches the centroid at least ``flush`` beats after
+    # the previous frame's last one: the gate must be loaded by then.
+    if params.track_gate and flush <= centroid_cycles:
+        raise ValueError(f"track_gate needs at least {centroid_cycles + 1} flush beats "
+                         f"between frames, the windows give {flush}")
     pixel_cycles = sum(s.cycles for s in pixel)
-    record_cycles = (flush + pixel_cycles + centroid_cycles_after_frame(width, height)
+    record_cycles = (flush + pixel_cycles + centroid_cycles
                      + MovingAverage.cycles + GestureSpotting.cycles + 1)
     return PipelineTiming(flush, pixel_cycles, width * height + flush, record_cycles)
 
@@ -182,7 +188,8 @@ class GesturePipeline(wiring.Component):
             band_low=p.band_low, band_high=p.band_high,
             skin_delay_beats=med.lag + mat.lag, skin_delay_cycles=med.cycles + mat.cycles)
         self._opening = Opening(width, height, element=p.opening_shape, size=p.opening_size)
-        self._centroid = Centroid(width, height)
+        self._centroid = Centroid(width, height, track_gate=p.track_gate,
+                                  hand_rows=p.hand_rows)
         coord = bits_for(max(width, height) - 1)
         self._average = MovingAverage(coord_bits=coord, window=p.average_window,
                                       frac_bits=p.frac_bits)

@@ -106,7 +106,7 @@ def check_out_dir(out_dir) -> Path:
 
 def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
              vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, rectification=None,
-             progress=None) -> BundleInfo:
+             hand_tracking: bool = False, progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
 
     Parameters
@@ -121,6 +121,9 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
         (defaults from :mod:`soc.clocks`: 100, 25 and 24 MHz).
     rectification : sim.model.rectify.StereoRectification, optional
         The calibration's maps, built into the rectification stages.
+    hand_tracking : bool
+        The centroid's hand tracking (:func:`sim.model.pipeline.hand_tracking_for`
+        the width) on top of the thesis parameters.
     progress : callable, optional
         Called with one-line progress messages.
 
@@ -143,14 +146,19 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
 
     from boards.de1_soc import StereogestDE1SoCPlatform
 
+    from sim.model.pipeline import PipelineParams, hand_tracking_for
+
     from .board_top import BoardTop
     from .core import CORE_NAME, StereogestCore, core_ports, emit_core_verilog
     from .vga_timing import VGA_640x480_60
 
     # the raster is the 640x480 one; the pixel clock is what the PLL makes
     vga_mode = dataclasses.replace(VGA_640x480_60, pixel_clock=int(round(vga_hz)))
-    core = StereogestCore(width, height, rectification=rectification, sync_freq=sync_hz,
-                          vga_mode=vga_mode)
+    params = PipelineParams()
+    if hand_tracking:
+        params = dataclasses.replace(params, **hand_tracking_for(width))
+    core = StereogestCore(width, height, params, rectification=rectification,
+                          sync_freq=sync_hz, vga_mode=vga_mode)
     say(f"elaborating the core ({width}x{height}) ...")
     core_v = emit_core_verilog(core)
     ports = core_ports(core)
@@ -182,6 +190,7 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     files[MARKER] = json.dumps({
         "generator": "stereogest generate", "width": width, "height": height,
         "sync_hz": sync_hz, "vga_hz": vga_hz, "xclk_hz": xclk_hz,
+        "hand_tracking": {"track_gate": params.track_gate, "hand_rows": params.hand_rows},
         "device": DEVICE, "files": sorted([*files, MARKER]),
     }, indent=2) + "\n"
 

@@ -58,6 +58,7 @@ class LiveSession:
                       "history": [], "done": False, "error": None}
         self.pictures: dict[str, bytes] = {}
         self._cents: list = []
+        self._previous = None      # the last frame's centroid (hand tracking's gate)
         self._areas: list = []
         self._first = 0            # frame number of _cents[0]
         self._times: list = []
@@ -71,7 +72,9 @@ class LiveSession:
         from sim.model.pipeline import process_frame, track, video_picture
         from sim.pictures import disparity_picture, trajectory_picture
         p = self.params
-        stages = process_frame(left_bytes, right_bytes, p, threads=self.threads)
+        stages = process_frame(left_bytes, right_bytes, p, threads=self.threads,
+                               previous=self._previous)
+        self._previous = stages.centroid
         self._cents.append((stages.centroid.x, stages.centroid.y))
         self._areas.append(stages.centroid.area)
         if len(self._cents) > HISTORY:

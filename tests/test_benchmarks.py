@@ -81,7 +81,7 @@ def test_demo_accuracy_runs_its_clips_on_a_dask_cluster(capsys):
     out = capsys.readouterr().out
     summary = json.loads(out.strip().splitlines()[-1])
     assert summary["clips"] == 2 and summary["scheduler"] == cluster.scheduler_address
-    assert code == (0 if summary["correct"] == 2 else 1)
+    assert code == (0 if summary["thesis"]["correct"] == 2 else 1)
     assert out.count("| stop | 200") == 2      # seeds 2001 and 2002, one row each
 
 
@@ -89,13 +89,19 @@ def test_demo_accuracy_scene_and_difficulties(capsys):
     bench = load_script("demo_accuracy")
     bench.main(["--backend", "model", "--width", "160", "--height", "120", "--jobs", "1",
                 "--per-gesture", "1", "--gesture", "stop", "--scene", "hard",
-                "--difficulty", "forearm=0", "--difficulty", "motion_blur=0.2"])
+                "--difficulty", "forearm=0", "--difficulty", "motion_blur=0.2", "--compare"])
     out = capsys.readouterr().out
     summary = json.loads(out.strip().splitlines()[-1])
     assert summary["scene"] == "hard" and summary["clips"] == 1
     assert summary["difficulties"] == {"forearm": False, "motion_blur": 0.2}
-    assert summary["centroid_error_mean"] is not None and set(summary["spotting"]) == {
-        "missed", "split"}
+    for pipeline in ("thesis", "hand tracking"):
+        figures = summary[pipeline]
+        assert figures["clips"] == 1 and figures["centroid_error_mean"] is not None
+        assert set(figures["spotting"]) == {"missed", "split"}
+    assert out.count("| stop | 2001 | thesis |") == out.count("| stop | 2001 | hand tracking |") == 1
+    with pytest.raises(SystemExit):
+        bench.main(["--compare", "--per-gesture", "1"])
+    assert "--compare needs --backend model" in capsys.readouterr().err
     for bad, word in (("wind=1", "no such difficulty"), ("motion_blur=x", "takes a number"),
                       ("motion_blur=3", "motion_blur must be"), ("forearm=yes", "0 or 1")):
         with pytest.raises(SystemExit):

@@ -269,6 +269,23 @@ def test_demo_small(tmp_path, capsys):
     assert stage_pngs and len(stage_pngs) % (len(STAGES) + 1) == 0      # + the sheet
 
 
+def test_demo_hard_scene_needs_the_hand_tracking(tmp_path, capsys):
+    """`demo --scene hard` (a forearm, an intruder at the hand's depth, ...): the
+    thesis' centroid misses this person's gesture, the hand tracking's finds it;
+    the pipeline summary records the parameters used."""
+    found = {}
+    for option in ([], ["--hand-tracking"]):
+        out = tmp_path / f"demo{len(option)}"
+        status, stdout, err = run(capsys, "demo", "--backend", "model", "--scene", "hard",
+                                  "--gesture", "left", "--seed", "2001", "--width", "320",
+                                  "--height", "240", "-o", out, "--quiet", *option)
+        assert err == "", err
+        found[bool(option)] = json.loads(stdout.strip().splitlines()[-1])["recognised"]
+        params = json.loads((out / "pipeline" / "summary.json").read_text())["params"]
+        assert (params["track_gate"], params["hand_rows"]) == ((32, 18) if option else (0, 0))
+    assert found == {False: None, True: "left"}
+
+
 @pytest.mark.parametrize("value", ["-2", "10001"])
 def test_demo_pre_rest_out_of_range_is_one_line_and_writes_nothing(tmp_path, capsys, value):
     out = tmp_path / "demo"

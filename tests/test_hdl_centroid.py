@@ -118,7 +118,71 @@ def test_centroid_next_frame_right_after_last_pixel_exact_timing():
 @pytest.mark.parametrize("make, name", [
     (lambda: Centroid(4, 8), r"width must be in \[8, 4096\]"),
     (lambda: Centroid(16, 1), r"height must be in \[2, 4096\]"),
+    (lambda: Centroid(16, 8, track_gate=-1), r"track_gate must be in \[0, 4095\]"),
+    (lambda: Centroid(16, 8, hand_rows=4097), r"hand_rows must be in \[0, 4096\]"),
 ])
 def test_bad_parameters_raise_value_error_naming_them(make, name):
     with pytest.raises(ValueError, match=name):
         make()
+
+
+def _tracking_masks(h, w, seed, frames=14):
+    """A hand (a blob) moving across the frame with a forearm (a strip below it),
+    a second blob (the intruder) now and then, some empty frames (the gate opens
+    again) and noise; the hand leaves the gate once (a jump)."""
+    rng = np.random.default_rng(seed)
+    masks = []
+    for n in range(frames):
+        mask = rng.random((h, w)) < 0.02
+        if n in (4, 9):
+            masks.append(np.zeros((h, w), bool) if n == 4 else mask)
+            continue
+        cx = 3 + (n * 3) % (w - 8) if n != 11 else w - 4      # a jump at frame 11
+        cy = 2 + (n * 2) % max(1, h // 2)
+        mask[cy:cy + 3, cx - 2:cx + 3] |= rng.random((3, 5)) < 0.9
+        mask[cy + 3:, cx - 1:cx + 2] = True                   # the forearm, down to the edge
+        if n % 3:
+            iy, ix = int(rng.integers(h)), int(rng.integers(w))
+            mask[iy:iy + 3, ix:ix + 3] = True                 # the intruder
+        masks.append(mask)
+    return masks
+
+
+def _tracked(masks, **tracking):
+    out, previous = [], None
+    for mask in masks:
+        previous = centroid(mask, previous=previous, **tracking)
+        out.append(tuple(previous))
+    return out
+
+
+@pytest.mark.parametrize("tracking", [dict(track_gate=4), dict(hand_rows=3),
+                                      dict(track_gate=5, hand_rows=4),
+                                      dict(track_gate=40, hand_rows=1)])
+def test_centroid_hand_tracking_against_the_model(tracking):
+    width, height = 24, 12
+    dut = Centroid(width, height, **tracking)
+    masks = _tracking_masks(height, width, seed=sum(tracking.values()))
+    expected = _tracked(masks, **tracking)
+    # The tracking changes the result (else this test could not fail).
+    assert expected != _tracked(masks)
+    # The next frame starts once the gate is loaded (the pipeline's flush).
+    wait = dut.cycles_after_frame + 1
+    beats, last = _mask_beats(dut.i_stream.payload.shape(), masks, seed=7,
+                              before=(0, 5), after=(wait, wait + 9))
+    gaps = _gaps(len(beats), 0.2, 3)
+    out, _ = _drive(dut, beats, gaps)
+    assert _centroids(dut, out) == expected
+
+
+def test_centroid_hand_rows_alone_allows_back_to_back_frames():
+    width, height = 24, 12
+    dut = Centroid(width, height, hand_rows=2)
+    masks = _tracking_masks(height, width, seed=11)
+    beats, last = _mask_beats(dut.i_stream.payload.shape(), masks, seed=6, before=(0, 0),
+                              after=(0, 0))
+    out, cycles = _drive(dut, beats, np.zeros(len(beats), int))
+    assert _centroids(dut, out) == _tracked(masks, hand_rows=2)
+    # The decision's register: one cycle more than without tracking.
+    assert dut.cycles_after_frame == Centroid(width, height).cycles_after_frame + 1
+    assert cycles == [k + dut.cycles_after_frame for k in last]

@@ -2,6 +2,8 @@
 """The whole GesturePipeline (camera pins to per-frame records) against the
 golden model: a small frame in Amaranth's simulator with three clock domains,
 and (tests/test_hdl_pipeline_verilator.py) full frames under Verilator."""
+import dataclasses
+
 import numpy as np
 import pytest
 from amaranth.hdl import ClockDomain, Module
@@ -38,8 +40,11 @@ def small_frames(n, width=32, height=16, seed=0):
 
 def golden(lefts, rights, params, rectification=None):
     """Model records: per-frame centroid and area, then moving average and spotting."""
-    stages = [process_frame(l, r, params, rectification=rectification)
-              for l, r in zip(lefts, rights)]
+    stages, previous = [], None
+    for left, right in zip(lefts, rights):
+        stages.append(process_frame(left, right, params, rectification=rectification,
+                                    previous=previous))
+        previous = stages[-1].centroid
     cents = np.array([[s.centroid.x, s.centroid.y] for s in stages])
     areas = np.array([s.centroid.area for s in stages])
     return stages, cents, areas, track(cents, areas, params)
@@ -93,12 +98,18 @@ def small_rectification(width=32, height=16):
         grid_of(rotation_homography(width, height, -0.6, -0.3, -0.5), width, height, 4, 4))
 
 
-@pytest.mark.parametrize("rectified", [False, True])
-def test_small_pipeline_equals_golden_model(rectified):
+#: SMALL with the centroid's hand tracking (sim.model.centroid): a gate the
+#: moving rectangle stays in, and its top rows.
+TRACKING = dataclasses.replace(SMALL, track_gate=7, hand_rows=3)
+
+
+@pytest.mark.parametrize("rectified, params", [(False, SMALL), (True, SMALL),
+                                               (False, TRACKING)])
+def test_small_pipeline_equals_golden_model(rectified, params):
     width, height, n = 32, 16, 4
     lefts, rights = small_frames(n, width, height)
     rectification = small_rectification(width, height) if rectified else None
-    dut = GesturePipeline(width, height, SMALL, rectification=rectification, fifo_depth=256,
+    dut = GesturePipeline(width, height, params, rectification=rectification, fifo_depth=256,
                           sync_threshold=8)
     timing = CameraTiming(vsync_cycles=8, front_porch=2 * dut.flush + 64, hblank=12,
                           back_porch=2 * dut.flush)
@@ -106,8 +117,8 @@ def test_small_pipeline_equals_golden_model(rectified):
     right_wave = camera_waveform(rights, timing, start_delay=130)
     cycles = len(left_wave.vsync) // 2 + dut.record_cycles + 400
     records, _ = run_amaranth(dut, left_wave, right_wave, cycles)
-    stages, cents, areas, traj = golden(lefts, rights, SMALL, rectification)
-    if rectified:        # the rectification changes what the pipeline sees
+    stages, cents, areas, traj = golden(lefts, rights, params, rectification)
+    if rectified or params.hand_tracking:     # it changes what the pipeline sees
         assert (golden(lefts, rights, SMALL)[1] != cents).any()
     assert len(records) == n
     assert (areas > 0).sum() >= n - 1, "the test frames must contain a hand"

@@ -195,3 +195,30 @@ def test_rectified_vga_frames_equal_golden_model(vga_clip):
     for k, st in enumerate(stages):
         got = pixels[first[k]:first[k] + 640 * 480].reshape(480, 640)
         assert np.array_equal(got, video_picture(st, "left", 3)), k
+
+
+# ---------------------------------------------------------------- hand tracking
+
+
+def test_hand_tracking_full_frames_equal_golden_model():
+    """The centroid's hand tracking (gate and top rows at their 640-wide values)
+    in the whole pipeline's Verilog on full 640x480 frames of a hard scene (a
+    forearm and an intruder ball inside the band), with a small matcher whose
+    band the rendered disparities are moved into: every record equals the golden
+    model's, and the tracking changes them."""
+    import dataclasses
+
+    from sim.difficulties import Difficulties
+    from sim.model.pipeline import hand_tracking_for
+    from sim.render import render_clip
+    clip = render_clip("forward", 4, 640, 480, hand_disparity=5, face_disparity=1,
+                       torso_disparity=2, background_disparity=0, n_pre_rest=1, n_motion=4,
+                       n_post_rest=0, difficulties=Difficulties(forearm=True, intruder=True))
+    params = dataclasses.replace(SMALL, **hand_tracking_for(640))
+    hw, stats = run_clip_hardware(clip.left, clip.right, params)
+    ref, _ = run_clip(clip.left, clip.right, params)
+    thesis, _ = run_clip(clip.left, clip.right, SMALL)
+    assert (ref.area > 0).all() and (ref.area < thesis.area).all()
+    for field in ("centroid", "area", "smoothed", "flag", "symbol"):
+        assert np.array_equal(getattr(hw, field), getattr(ref, field)), field
+    assert stats["faults"] == 0

@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sim.model.centroid import Centroid, centroid, moment_widths
+from sim.model.centroid import Centroid, centroid, counted_pixels, moment_widths
 
 
 def _cv_centroid(mask):
@@ -75,3 +75,72 @@ def test_moment_widths_hold_full_mask_tightly(width, height):
 def test_moment_widths_rejects_bad_size(name, args):
     with pytest.raises(ValueError, match=name):
         moment_widths(*args)
+
+
+# ---------------------------------------------------------------- hand tracking
+
+
+def _counted_in_raster_order(mask, previous, track_gate, hand_rows):
+    """counted_pixels as the hardware decides it, pixel by pixel in raster order."""
+    height, width = mask.shape
+    gate = (0, width - 1, 0, height - 1)
+    if track_gate and previous is not None and previous[2] > 0:
+        px, py = previous[:2]
+        gate = (max(px - track_gate, 0), min(px + track_gate, width - 1),
+                max(py - track_gate, 0), min(py + track_gate, height - 1))
+    out = np.zeros_like(mask)
+    row_end = None
+    for y in range(height):
+        for x in range(width):
+            count = (mask[y, x] and gate[0] <= x <= gate[1] and gate[2] <= y <= gate[3]
+                     and (not hand_rows or row_end is None or y < row_end))
+            if count and hand_rows and row_end is None:
+                row_end = y + hand_rows
+            out[y, x] = count
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_counted_pixels_equals_the_raster_order_decision(seed):
+    rng = np.random.default_rng(seed)
+    height, width = 11, 17
+    mask = rng.random((height, width)) < 0.3
+    previous = [None, Centroid(int(rng.integers(width)), int(rng.integers(height)), 5),
+                Centroid(3, 4, 0)][seed % 3]
+    for track_gate, hand_rows in ((0, 0), (3, 0), (0, 2), (2, 3), (20, 1), (1, 20)):
+        got = counted_pixels(mask, previous=previous, track_gate=track_gate,
+                             hand_rows=hand_rows)
+        assert np.array_equal(got, _counted_in_raster_order(mask, previous, track_gate,
+                                                            hand_rows)), (track_gate, hand_rows)
+        assert centroid(mask, previous=previous, track_gate=track_gate,
+                        hand_rows=hand_rows) == centroid(got)
+
+
+def test_tracking_keeps_the_hand_and_drops_forearm_and_intruder():
+    mask = np.zeros((60, 80), bool)
+    mask[20:30, 30:40] = True                   # the hand, centre (34, 24)
+    mask[30:60, 33:37] = True                   # the forearm below it, to the edge
+    mask[2:12, 70:78] = True                    # a second blob (the intruder)
+    hand = Centroid(34, 24, 100)
+    assert centroid(mask) != hand               # the thesis' centroid is dragged away
+    assert centroid(mask, previous=(35, 26, 80), track_gate=15, hand_rows=10) == hand
+    # Without the gate the intruder is the top of the mask; without a previous hand
+    # (or one with area 0) the gate is the whole frame.
+    assert centroid(mask, previous=(35, 26, 80), hand_rows=10) == centroid(mask[:12])
+    for previous in (None, (35, 26, 0)):
+        assert centroid(mask, previous=previous, track_gate=15) == centroid(mask)
+    # Off: the thesis, whatever the previous centroid.
+    assert centroid(mask, previous=(35, 26, 80)) == centroid(mask)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(track_gate=-1), r"track_gate must be in \[0, 4095\], got -1"),
+    (dict(track_gate=4096), r"track_gate must be in \[0, 4095\]"),
+    (dict(hand_rows=4097), r"hand_rows must be in \[0, 4096\]"),
+    (dict(hand_rows=1.5), r"hand_rows must be"),
+    (dict(previous=(1, 2)), r"previous must be a centroid \(x, y, area\)"),
+    (dict(previous=(1, -2, 3)), r"previous\.y must be"),
+])
+def test_tracking_arguments_are_validated(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        centroid(np.zeros((4, 4), bool), **kwargs)

@@ -273,6 +273,8 @@ def test_defaults_are_valid_and_thesis_values():
     (dict(hamming_window=30), "hamming_window"),
     (dict(no_match_cost=25), "no_match_cost"),
     (dict(max_disparity=321), "max_disparity"),
+    (dict(track_gate=-1), "track_gate"),
+    (dict(hand_rows=5000), "hand_rows"),
 ])
 def test_validate_names_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}\b"):
@@ -306,6 +308,20 @@ def test_width_range_is_what_validate_enforces(kwargs, low):
     params.validate(low, 240)
     with pytest.raises(ValueError, match=rf"^width must be .*\[{low}, 4096\]"):
         params.validate(low - 2, 240)
+
+
+def test_for_frame_hand_tracking_scales_with_the_width():
+    from sim.model.pipeline import HAND_TRACKING_640
+    assert not PipelineParams.for_frame(640).hand_tracking
+    thesis = PipelineParams()
+    assert (thesis.track_gate, thesis.hand_rows) == (0, 0) and not thesis.hand_tracking
+    at_640 = PipelineParams.for_frame(640, hand_tracking=True)
+    assert at_640.hand_tracking
+    assert {"track_gate": at_640.track_gate, "hand_rows": at_640.hand_rows} == HAND_TRACKING_640
+    at_320 = PipelineParams.for_frame(320, hand_tracking=True)
+    assert (at_320.track_gate, at_320.hand_rows) == (HAND_TRACKING_640["track_gate"] // 2,
+                                                      HAND_TRACKING_640["hand_rows"] // 2)
+    assert PipelineParams.for_frame(320, hand_tracking=True, hand_rows=0).hand_rows == 0
 
 
 # ---------------------------------------------------------------- run_clip
@@ -347,3 +363,25 @@ def test_run_clip_errors(small_clip):
     assert calls == []
     with pytest.raises(ValueError, match=r"width must be in \[200, "):   # D = 200 > 160 px
         run_clip(clip.left, clip.right, PipelineParams(max_disparity=200))
+
+
+def test_run_clip_hands_each_frame_the_previous_centroid():
+    """Hand tracking on a forearm and an intruder (sim/difficulties.py): run_clip
+    passes each frame's centroid to the next, and the tracked centroid stays on
+    the hand where the thesis' is dragged down the arm."""
+    from sim.difficulties import Difficulties
+    clip = render_clip("right", 5, **SIZE, n_pre_rest=2, n_motion=12, n_post_rest=0,
+                       difficulties=Difficulties(forearm=True, intruder=True))
+    tracking = PipelineParams.for_frame(SIZE["width"], hand_tracking=True)
+    traj, kept = run_clip(clip.left, clip.right, tracking, keep=lambda n: True)
+    previous, chained = None, []
+    for n in range(clip.frames):
+        previous = centroid(kept[n].opened, previous=previous,
+                            track_gate=tracking.track_gate, hand_rows=tracking.hand_rows)
+        chained.append(tuple(previous))
+    assert [tuple(c) + (a,) for c, a in zip(traj.centroid, traj.area)] == chained
+    assert [tuple(kept[n].centroid) for n in range(clip.frames)] == chained
+    thesis = [centroid(kept[n].opened) for n in range(clip.frames)]
+    error = np.hypot(*(traj.centroid - clip.hand_xy).T)
+    thesis_error = np.hypot(*(np.array([c[:2] for c in thesis]) - clip.hand_xy).T)
+    assert error.mean() < 6 and thesis_error.mean() > 3 * error.mean()

@@ -12,6 +12,7 @@ bundles reuse that core's Verilog instead of elaborating the core again.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shutil
@@ -725,6 +726,31 @@ def test_cli_generate(tmp_path, capsys, fast_core):
     status, out, err = run(capsys, "generate", "--out", tmp_path / "d")
     assert status == 2
     assert_one_line_error(err, "generate", "not a stereogest bundle")
+
+
+def test_cli_generate_hand_tracking_builds_the_tracking_centroid(tmp_path, capsys,
+                                                                 monkeypatch, files):
+    """--hand-tracking: the core gets the thesis parameters plus the centroid's
+    hand tracking for its width, and the bundle's marker says so."""
+    import soc.core
+    from sim.model.pipeline import PipelineParams, hand_tracking_for
+    cores = []
+
+    def emit(core):
+        cores.append(core)
+        return files[gen.CORE_FILE]
+    monkeypatch.setattr(soc.core, "emit_core_verilog", emit)
+    for option, expected in ((["--hand-tracking"], hand_tracking_for(640)), ([], {})):
+        out = tmp_path / ("t" if option else "p")
+        status, _, err = run(capsys, "generate", "--out", out, "--quiet", *option)
+        assert status == 0, err
+        params = dataclasses.replace(PipelineParams(), **expected)
+        assert cores[-1].params == params
+        assert cores[-1].pipeline._centroid.track_gate == params.track_gate
+        marker = json.loads((out / gen.MARKER).read_text())
+        assert marker["hand_tracking"] == {"track_gate": params.track_gate,
+                                           "hand_rows": params.hand_rows}
+    assert hand_tracking_for(640)["track_gate"] > 0
 
 
 # ---- board, parser, top ---------------------------------------------------------------

@@ -3,6 +3,14 @@
 The hardware accumulates three moments while the mask streams past --
 ``M00`` (count of set pixels), ``M10`` (sum of their x) and ``M01`` (sum of their
 y) -- and divides once per frame with an unsigned integer divider.
+
+Hand tracking (not in the thesis; issue 18, both off by default): a bare forearm
+inside the disparity band drags the centroid of the whole mask down the arm, and a
+second skin-coloured thing at the hand's depth drags it across the picture.
+``track_gate`` counts only the pixels within that many pixels (a square) of the
+previous frame's centroid, and ``hand_rows`` only the first that many rows from
+the top of what is left: the hand is the top of the arm. Both decide per pixel in
+raster order, so the hardware still needs one pass and no frame memory.
 """
 from __future__ import annotations
 
@@ -12,7 +20,12 @@ import numpy as np
 
 from .validation import check_bool_image, check_int
 
-__all__ = ["Centroid", "MomentWidths", "centroid", "moment_widths"]
+__all__ = ["Centroid", "MomentWidths", "TRACK_GATE_RANGE", "HAND_ROWS_RANGE", "centroid",
+           "counted_pixels", "moment_widths"]
+
+#: Allowed ``track_gate`` (half-size of the gate square, px) and ``hand_rows``; 0 = off.
+TRACK_GATE_RANGE = (0, 4095)
+HAND_ROWS_RANGE = (0, 4096)
 
 
 class Centroid(NamedTuple):
@@ -31,12 +44,58 @@ class MomentWidths(NamedTuple):
     m01: int
 
 
-def centroid(mask) -> Centroid:
+def counted_pixels(mask, *, previous=None, track_gate: int = 0, hand_rows: int = 0):
+    """The pixels of ``mask`` the centroid counts (all of them unless hand tracking
+    is on; module docstring).
+
+    Parameters
+    ----------
+    mask : (H, W) bool, or integer array of 0/1
+    previous : Centroid or (x, y, area) or None
+        The previous frame's centroid; None (the clip's first frame) or
+        ``area == 0`` (no hand) opens the gate to the whole frame.
+    track_gate : int in TRACK_GATE_RANGE
+        0: no gate. Else only pixels with ``|x - previous.x| <= track_gate`` and
+        ``|y - previous.y| <= track_gate`` count.
+    hand_rows : int in HAND_ROWS_RANGE
+        0: every row. Else only the rows ``top .. top + hand_rows - 1``, ``top``
+        being the first row with a pixel inside the gate.
+
+    Returns
+    -------
+    (H, W) bool
+    """
+    mask = check_bool_image("mask", mask)
+    track_gate = check_int("track_gate", track_gate, *TRACK_GATE_RANGE)
+    hand_rows = check_int("hand_rows", hand_rows, *HAND_ROWS_RANGE)
+    if previous is not None:
+        if len(tuple(previous)) != 3:
+            raise ValueError(f"previous must be a centroid (x, y, area), got {previous!r}")
+        px, py, parea = (check_int(f"previous.{name}", value, 0)
+                         for name, value in zip(Centroid._fields, previous))
+    if track_gate and previous is not None and parea > 0:
+        gated = np.zeros_like(mask)
+        rows = slice(max(py - track_gate, 0), py + track_gate + 1)
+        cols = slice(max(px - track_gate, 0), px + track_gate + 1)
+        gated[rows, cols] = mask[rows, cols]
+        mask = gated
+    if hand_rows:
+        filled = np.flatnonzero(mask.any(axis=1))
+        if filled.size:
+            mask = mask.copy()
+            mask[filled[0] + hand_rows:] = False
+    return mask
+
+
+def centroid(mask, *, previous=None, track_gate: int = 0, hand_rows: int = 0) -> Centroid:
     """Centroid of the set pixels of a mask (thesis §7.1, eq. 23-24, Fig. 72).
 
     Parameters
     ----------
     mask : (H, W) bool, or integer array of 0/1
+    previous, track_gate, hand_rows
+        Hand tracking (off by default: the thesis): only the pixels
+        :func:`counted_pixels` keeps count.
 
     Returns
     -------
@@ -51,9 +110,11 @@ def centroid(mask) -> Centroid:
     Raises
     ------
     ValueError
-        If ``mask`` is not a 2-D boolean (or 0/1) array.
+        If ``mask`` is not a 2-D boolean (or 0/1) array, or a tracking argument
+        is out of range (the message names it).
     """
-    mask = check_bool_image("mask", mask)
+    mask = counted_pixels(mask, previous=previous, track_gate=track_gate,
+                          hand_rows=hand_rows)
     height, width = mask.shape
     m00 = int(np.count_nonzero(mask))
     if m00 == 0:

@@ -39,12 +39,18 @@ from .stereo import check_stereo_params, stereo_match
 from .validation import check_int
 from .ycbcr import ycbcr422_to_444
 
-__all__ = ["check_rectification", "PipelineParams", "DEMO_SPOT_HOLD", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",
+__all__ = ["check_rectification", "PipelineParams", "DEMO_SPOT_HOLD", "HAND_TRACKING_640",
+           "hand_tracking_for", "VIDEO_STAGES", "video_picture", "FrameStages", "Trajectory", "process_frame", "track",
            "step_symbols", "run_clip"]
 
 
 #: Still frames that end a gesture in the end-to-end demo (:meth:`PipelineParams.for_frame`).
 DEMO_SPOT_HOLD = 24
+#: Hand tracking of :meth:`PipelineParams.for_frame` (``hand_tracking=True``) for
+#: 640-pixel-wide frames, scaled to the width: the centroid counts the mask within
+#: 64 px of the previous centroid and its first 36 rows (sim.model.centroid).
+#: Chosen on the hard scene's development seeds 501-502 (README, scene difficulties).
+HAND_TRACKING_640 = {"track_gate": 64, "hand_rows": 36}
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,8 @@ class PipelineParams:
     spot_window: int = 8              #: K (Fig. 78)
     spot_threshold: int = 30          #: Tm, pixels
     spot_hold: int = 16               #: still frames that end a gesture
+    track_gate: int = 0               #: hand tracking (not in the thesis): gate half-size, px
+    hand_rows: int = 0                #: hand tracking: rows counted from the hand's top
 
     #: Frame heights the pipeline accepts (the widths depend on the parameters:
     #: :meth:`width_range`).
@@ -95,6 +103,8 @@ class PipelineParams:
                  disparity_band, probe, self.band_low, self.band_high, self.max_disparity)
         _renamed({"shape": "opening_shape", "size": "opening_size"},
                  structuring_element, self.opening_shape, self.opening_size)
+        centroid(probe, previous=(0, 0, 1), track_gate=self.track_gate,
+                 hand_rows=self.hand_rows)
         _renamed({"window": "average_window"},
                  moving_average, *point, self.average_window, self.frac_bits)
         _renamed({"window": "spot_window", "threshold": "spot_threshold", "hold": "spot_hold"},
@@ -110,19 +120,35 @@ class PipelineParams:
     def as_dict(self) -> dict:
         return asdict(self)
 
+    @property
+    def hand_tracking(self) -> bool:
+        """Whether the centroid tracks the hand (:mod:`sim.model.centroid`)."""
+        return bool(self.track_gate or self.hand_rows)
+
     @classmethod
-    def for_frame(cls, width: int, **overrides) -> "PipelineParams":
+    def for_frame(cls, width: int, *, hand_tracking: bool = False,
+                  **overrides) -> "PipelineParams":
         """The parameters of the end-to-end demo for frames ``width`` pixels wide:
         the thesis values, with the spotting threshold Tm (a distance in pixels,
         set for 640-pixel-wide frames) scaled to ``width``, and the spotting hold
         raised to :data:`DEMO_SPOT_HOLD` frames (the rendered out-and-back
         gestures dwell at their turn long enough to split under 16; measured on
-        the development seeds, see soc/README.md)."""
+        the development seeds, see soc/README.md). ``hand_tracking``: also the
+        centroid's hand tracking, :data:`HAND_TRACKING_640` scaled to ``width``."""
         check_int("width", width, 16, 4096)
         values = dict(spot_threshold=max(1, round(cls.spot_threshold * width / 640)),
                       spot_hold=DEMO_SPOT_HOLD)
+        if hand_tracking:
+            values.update(hand_tracking_for(width))
         values.update(overrides)
         return cls(**values)
+
+
+def hand_tracking_for(width: int) -> dict:
+    """``track_gate`` and ``hand_rows`` of :data:`HAND_TRACKING_640` scaled to
+    frames ``width`` pixels wide."""
+    check_int("width", width, 16, 4096)
+    return {name: max(1, round(value * width / 640)) for name, value in HAND_TRACKING_640.items()}
 
 
 def _renamed(names: dict[str, str], check: Callable, *args) -> None:
@@ -167,6 +193,7 @@ def check_rectification(rectification, width: int, height: int) -> None:
 
 def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelineParams(),
                   *, rectification: StereoRectification | None = None,
+                  previous: Centroid | None = None,
                   threads: int | None = None) -> FrameStages:
     """Run one stereo frame through every pixel stage (§5.4 - §7.1).
 
@@ -174,6 +201,8 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     streams (Y0 Cb Y1 Cr ...), as the cameras deliver them. ``rectification``
     (:mod:`sim.model.rectify`) rectifies both cameras after the 4:4:4
     conversion; None (the thesis' pipeline) leaves them as they are.
+    ``previous`` is the previous frame's centroid, which the hand tracking's
+    gate needs (``params.track_gate``; None: the clip's first frame).
     """
     y_left, cb_left, cr_left = ycbcr422_to_444(left_bytes)
     y_right, _, _ = ycbcr422_to_444(right_bytes)
@@ -194,7 +223,9 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     band = disparity_band(disparity, params.band_low, params.band_high, params.max_disparity)
     hand = hand_mask(skin, band)
     opened = opening(hand, params.opening_shape, size=params.opening_size)
-    return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, centroid(opened))
+    return FrameStages(y_left, y_right, disparity, skin, band, hand, opened,
+                       centroid(opened, previous=previous, track_gate=params.track_gate,
+                                hand_rows=params.hand_rows))
 
 
 #: Stages of the pipeline's stage-select video output (thesis Table 22, SW[9:7]).
@@ -276,9 +307,12 @@ def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(
     cents = np.zeros((frames, 2), np.int64)
     areas = np.zeros(frames, np.int64)
     kept: dict[int, FrameStages] = {}
+    previous = None
     for n in range(frames):
         stages = process_frame(left_frames[n], right_frames[n], params,
-                               rectification=rectification, threads=threads)
+                               rectification=rectification, previous=previous,
+                               threads=threads)
+        previous = stages.centroid
         cents[n] = stages.centroid.x, stages.centroid.y
         areas[n] = stages.centroid.area
         if keep(n):

@@ -32,6 +32,16 @@ def add_calibration_options(parser) -> None:
                         default="bilinear", help="pixel interpolation of the rectification")
 
 
+def add_hand_tracking_option(parser) -> None:
+    """``--hand-tracking``: the centroid's hand tracking (not in the thesis; the
+    gate and top rows of :data:`sim.model.pipeline.HAND_TRACKING_640`, scaled to
+    the width), worded once for demo, pipeline, live and generate."""
+    parser.add_argument("--hand-tracking", action="store_true",
+                        help="the centroid counts only the top rows of the mask near the "
+                             "last centroid (a forearm or a second skin-coloured thing at "
+                             "the hand's depth no longer drags it; not in the thesis)")
+
+
 def load_rectification(args, width: int, height: int):
     """The :class:`sim.model.rectify.StereoRectification` of ``--calibration``
     for ``width`` x ``height`` frames, or None without the option; errors name

@@ -59,8 +59,10 @@ def add_arguments(p):
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    from stereogest.commands import add_calibration_options, add_scene_options
+    from stereogest.commands import (add_calibration_options, add_hand_tracking_option,
+                                     add_scene_options)
     add_calibration_options(p)
+    add_hand_tracking_option(p)
     add_scene_options(p)
     add_json_switch(p, always=True)
 
@@ -107,7 +109,7 @@ def run(args) -> int:
         width, height = clip.width, clip.height
     else:
         clip, width, height = None, args.width, args.height
-    params = PipelineParams.for_frame(width)
+    params = PipelineParams.for_frame(width, hand_tracking=args.hand_tracking)
     params.validate(width, height)
     rectification = load_rectification(args, width, height)
     with OutputDir(args.output) as out:

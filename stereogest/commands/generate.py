@@ -5,13 +5,15 @@ _hw.tcl component, the qsys-script that builds the HPS system (the core's
 slaves on the lightweight HPS-to-FPGA bridge at 0x000 and 0x100), the Quartus
 flow script and a README with the steps. DIR must be new, empty, or a bundle
 written before (it is replaced as a whole). Quartus itself is not needed. With
---calibration the pipeline rectifies both cameras with its maps."""
+--calibration the pipeline rectifies both cameras with its maps; with
+--hand-tracking its centroid tracks the hand."""
 from __future__ import annotations
 
 import json
 import sys
 
-from stereogest.commands import add_calibration_options, add_json_switch, frame_size_help
+from stereogest.commands import (add_calibration_options, add_hand_tracking_option,
+                                 add_json_switch, frame_size_help)
 
 NAME = "generate"
 HELP = "write the Quartus / Platform Designer bundle for the DE1-SoC"
@@ -24,6 +26,7 @@ def add_arguments(p):
     frame_size_help(p)
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_calibration_options(p)
+    add_hand_tracking_option(p)
     add_json_switch(p, always=True)
 
 
@@ -40,7 +43,7 @@ def run(args) -> int:
             print(message, file=sys.stderr, flush=True)
 
     info = generate(args.out_dir, args.width, args.height, rectification=rectification,
-                    progress=progress)
+                    hand_tracking=args.hand_tracking, progress=progress)
     print(f"wrote {len(info.files)} files to {info.out_dir} in {info.seconds:.1f} s; "
           f"next: see {info.out_dir}/README.md (or run quartus_build.sh there)")
     print(json.dumps({"out": str(info.out_dir), "files": list(info.files),

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 import threading
 
-from stereogest.commands import add_camera_options, add_json_switch
+from stereogest.commands import add_camera_options, add_hand_tracking_option, add_json_switch
 
 NAME = "live"
 HELP = "live view: golden model and recogniser on webcams, videos or a clip, in a browser"
@@ -41,6 +41,7 @@ def add_arguments(p):
                         "320x240 one thread beat two on a 2-core machine in CPU and wall "
                         "time, benchmarks/bench_live.py)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_hand_tracking_option(p)
     add_json_switch(p)
 
 
@@ -81,7 +82,7 @@ def run(args) -> int:
         pairs = closer
         native_fps = None if closer.camera else (closer.fps or 30)
         source = f"{closer.sources[0].kind} and {closer.sources[1].kind}"
-    params = PipelineParams.for_frame(width)
+    params = PipelineParams.for_frame(width, hand_tracking=args.hand_tracking)
     try:
         params.validate(width, height)
         session = LiveSession(params, models, threads=args.threads)

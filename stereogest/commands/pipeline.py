@@ -45,8 +45,9 @@ def add_arguments(p):
     p.add_argument("--json", action="store_true",
                    help="print the result (with 'recognised') as a JSON last line")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    from stereogest.commands import add_calibration_options
+    from stereogest.commands import add_calibration_options, add_hand_tracking_option
     add_calibration_options(p)
+    add_hand_tracking_option(p)
 
 
 def run(args) -> int:
@@ -62,7 +63,8 @@ def run(args) -> int:
     models = load_models(args.model or shipped_model_path())
     overrides = {k: v for k, v in (("spot_threshold", args.spot_threshold),
                                    ("spot_hold", args.spot_hold)) if v is not None}
-    params = PipelineParams.for_frame(clip.width, **overrides)
+    params = PipelineParams.for_frame(clip.width, hand_tracking=args.hand_tracking,
+                                      **overrides)
     params.validate(clip.width, clip.height)
     if args.threads is not None:
         check_int("--threads", args.threads, 1, 64)

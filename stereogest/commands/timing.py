@@ -9,6 +9,7 @@ when a clock misses its constraint. Small blocks take seconds to a minute; the
 matcher and the pipeline take tens of minutes each (hdl/README.md)."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import time
@@ -53,8 +54,9 @@ def add_arguments(p):
                    help="keep each run's files (RTLIL, netlist, LPF, nextpnr log and report) "
                         "in DIR/<block>")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    from stereogest.commands import add_calibration_options
+    from stereogest.commands import add_calibration_options, add_hand_tracking_option
     add_calibration_options(p)
+    add_hand_tracking_option(p)
 
 
 def table(results: list) -> str:
@@ -81,7 +83,7 @@ def run(args) -> int:
     from hdl.place_route import BLOCKS, CI_BLOCKS, DEVICE, find_nextpnr, place_and_route, \
         timing_design
     from hdl.synthesis import find_yosys
-    from sim.model.pipeline import PipelineParams
+    from sim.model.pipeline import PipelineParams, hand_tracking_for
     from soc.clocks import PCLK_HZ, SYNC_HZ
     from stereogest.commands import check_output_dir, check_output_file, load_rectification
 
@@ -95,6 +97,8 @@ def run(args) -> int:
                             lrcc_threshold=max(1, min(defaults.lrcc_threshold,
                                                       args.max_disparity)),
                             band_low=max(0, min(defaults.band_low, args.max_disparity - 3)))
+    if args.hand_tracking:
+        params = dataclasses.replace(params, **hand_tracking_for(args.width))
     try:
         params.validate(args.width, args.height)
     except ValueError as exc:
