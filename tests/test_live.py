@@ -64,6 +64,25 @@ def test_session_follows_the_batch_model_frame_by_frame(session, gesture, models
     assert s.state["recognised_at"] in [e + 1 for e in ended]
 
 
+def test_session_passes_the_hand_tracking_its_previous_centroid(models):
+    """With hand tracking (a forearm and an intruder in the scene) the live
+    session, frame by frame, equals the batch model, which gives each frame the
+    previous one's centroid."""
+    from sim.difficulties import Difficulties
+    clip = render_clip("left", 3, 320, 240, n_pre_rest=2, n_motion=10, n_post_rest=0,
+                       difficulties=Difficulties(forearm=True, intruder=True))
+    params = PipelineParams.for_frame(320, hand_tracking=True)
+    s = LiveSession(params, models)
+    states = []
+    run_source(s, zip(clip.left, clip.right), on_frame=lambda s: states.append(dict(s.state)))
+    trajectory, _ = run_clip(clip.left, clip.right, params)
+    assert (trajectory.area > 0).all()
+    assert [st["centroid"] for st in states] == [[round(float(v) / 256, 1) for v in xy]
+                                                 for xy in trajectory.smoothed]
+    plain, _ = run_clip(clip.left, clip.right, PipelineParams.for_frame(320))
+    assert not np.array_equal(plain.centroid, trajectory.centroid)
+
+
 def test_page_and_routes(session):
     s, _ = session
     server = LiveServer(s, 320, 240, port=0)
