@@ -120,6 +120,12 @@ class Centroid(wiring.Component):
         x = pos.x[:self.x_bits]  # inside the frame 0 <= x < width
         y = pos.y[:self.y_bits]
         first, count = p.first, p.pixel
+        gate = None
+        if self.track_gate:     # x_lo, x_hi, y_lo, y_hi: the whole frame after reset
+            gate = [Signal(self.x_bits, name="gate_x_lo"),
+                    Signal(self.x_bits, name="gate_x_hi", init=self.width - 1),
+                    Signal(self.y_bits, name="gate_y_lo"),
+                    Signal(self.y_bits, name="gate_y_hi", init=self.height - 1)]
         if self.tracking:
             # The decision gets a register stage of its own, so that the
             # comparisons are not in front of the adders (one cycle later).
@@ -127,7 +133,7 @@ class Centroid(wiring.Component):
                        (("beat", beat), ("first", first), ("count", count), ("x", x),
                         ("y", y), ("last", is_last))]
             m.d.sync += [d.eq(v) for d, v in zip(decided, (
-                beat, first, self._counted(m, beat, first, count, x, y), x, y, is_last))]
+                beat, first, self._counted(m, gate, beat, first, count, x, y), x, y, is_last))]
             beat, first, count, x, y, is_last = decided
         with m.If(beat):
             m.d.sync += [
@@ -158,19 +164,16 @@ class Centroid(wiring.Component):
             out.y.eq(Mux(empty, 0, div_y.quotient)),
             out.area.eq(area),
         ]
-        if self.track_gate:
-            self._update_gate(m)
+        if gate is not None:
+            self._update_gate(m, gate)
         return m
 
-    def _counted(self, m, beat, first, pixel, x, y):
-        """Whether the beat's pixel counts (hand tracking; ``pixel`` without it)."""
+    def _counted(self, m, gate, beat, first, pixel, x, y):
+        """Whether the beat's pixel counts: inside the ``gate`` registers (if any)
+        and within the row limit (if ``hand_rows``)."""
         count = pixel
-        if self.track_gate:
-            self._bounds = [Signal(self.x_bits, name="gate_x_lo"),
-                            Signal(self.x_bits, name="gate_x_hi", init=self.width - 1),
-                            Signal(self.y_bits, name="gate_y_lo"),
-                            Signal(self.y_bits, name="gate_y_hi", init=self.height - 1)]
-            x_lo, x_hi, y_lo, y_hi = self._bounds
+        if gate is not None:
+            x_lo, x_hi, y_lo, y_hi = gate
             count = count & (x >= x_lo) & (x <= x_hi) & (y >= y_lo) & (y <= y_hi)
         if self.hand_rows:
             seen = Signal()        # a pixel of this frame has counted
@@ -184,11 +187,11 @@ class Centroid(wiring.Component):
                     m.d.sync += seen.eq(0)
         return count
 
-    def _update_gate(self, m):
-        """Load the gate from the output beat: the square around the centroid,
-        clipped to the frame, or the whole frame when there was no hand."""
+    def _update_gate(self, m, gate):
+        """Load the ``gate`` registers from the output beat: the square around the
+        centroid, clipped to the frame, or the whole frame when there was no hand."""
         r, out = self.track_gate, self.o_stream.payload
-        x_lo, x_hi, y_lo, y_hi = self._bounds
+        x_lo, x_hi, y_lo, y_hi = gate
         with m.If(self.o_stream.valid):
             with m.If(out.area == 0):
                 m.d.sync += [x_lo.eq(0), x_hi.eq(self.width - 1),

@@ -155,7 +155,8 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     # the raster is the 640x480 one; the pixel clock is what the PLL makes
     vga_mode = dataclasses.replace(VGA_640x480_60, pixel_clock=int(round(vga_hz)))
     params = PipelineParams()
-    if hand_tracking:
+    if hand_tracking:           # after the checks: the width's range is the pipeline's
+        params.validate(width, height)
         params = dataclasses.replace(params, **hand_tracking_for(width))
     core = StereogestCore(width, height, params, rectification=rectification,
                           sync_freq=sync_hz, vga_mode=vga_mode)

@@ -298,9 +298,12 @@ CASES = [
     case("timing", "--seed", "0", match="--seed"),
     case("timing", "--router", "router9", match="invalid choice"),
     case("timing", "--timeout", "-1", match="--timeout"),
+    case("timing", "--hand-tracking", "--width", "8", match="--width must be in [48, 4096]"),
     *int_option_cases("generate", ["-o", f"{OUT}/b"], ["--width", "--height"]),
     case("generate", "-o", f"{OUT}/b", "--width", "641", match="--width"),
     case("generate", "-o", f"{OUT}/b", "--height", "0", match="--height"),
+    case("generate", "-o", f"{OUT}/b", "--hand-tracking", "--width", "8",
+         match="--width must be in [48, 4096]"),
     case("generate", "-o", f"{IN}/afile", match="afile"),
     case("generate", match="-o/--output"),
     # ------------------------------------------------------------ chessboards, calibrate

@@ -97,8 +97,6 @@ def run(args) -> int:
                             lrcc_threshold=max(1, min(defaults.lrcc_threshold,
                                                       args.max_disparity)),
                             band_low=max(0, min(defaults.band_low, args.max_disparity - 3)))
-    if args.hand_tracking:
-        params = dataclasses.replace(params, **hand_tracking_for(args.width))
     try:
         params.validate(args.width, args.height)
     except ValueError as exc:
@@ -107,6 +105,8 @@ def run(args) -> int:
         for field in ("census_window", "hamming_window", "max_disparity", "opening_size"):
             text = text.replace(field, "--" + field.replace("_", "-"))
         raise ValueError(text) from None
+    if args.hand_tracking:      # after the checks: the width's range is the pipeline's
+        params = dataclasses.replace(params, **hand_tracking_for(args.width))
     check_int("--seed", args.seed, 1, 2 ** 31 - 1)
     if args.timeout is not None and not 1 <= args.timeout <= 86_400:
         raise ValueError(f"--timeout must be in [1, 86400] seconds, got {args.timeout:g}")
