@@ -27,12 +27,20 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/stereo_quality.py
 
 # Routed timing on an ECP5 (nextpnr): every block, the whole matcher, the whole
-# pipeline (about an hour and a half on this machine; figures in hdl/README.md).
+# pipeline with three placer seeds, thesis parameters and with the default rig's
+# calibration and hand tracking (hours on this 2-core machine; figures in
+# hdl/README.md). PR_JOBS placements at a time.
+PR_JOBS ?= 2
 timing: $(STAMP)
 	mkdir -p build
 	$(BIN)/stereogest timing --block all -o build/timing_blocks.json
 	$(BIN)/stereogest timing --block matcher -o build/timing_matcher.json
-	$(BIN)/stereogest timing --block pipeline -o build/timing_pipeline.json
+	$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
+		-o build/timing_pipeline.json
+	$(BIN)/stereogest chessboards --count 1 -o build/chessboards --truth build/rig_calibration.json
+	$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
+		--calibration build/rig_calibration.json --hand-tracking \
+		-o build/timing_pipeline_calibrated.json
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Figures of the whole FPGA pipeline (hdl/gesture_pipeline.py, issue 5).
 
 * Timing at the thesis run-time parameters (640x480, Wc=7, Wh=29, D=48, W=11):
@@ -42,11 +41,19 @@ WIDTH, HEIGHT = 640, 480
 EQ40_CYCLES = 325_293
 
 
+#: The pixel stages of one camera's path, as the figures name them.
+STAGE_LABELS = {"to444_left": "4:2:2 -> 4:4:4", "median_left": "median",
+                "matcher": "stereo matcher", "segmentation": "segmentation",
+                "opening": "opening"}
+
+
 def timing():
-    from hdl.gesture_pipeline import GesturePipeline
-    p = GesturePipeline(WIDTH, HEIGHT)          # built: the memory bits need the stages
-    stages = dict(zip(("4:2:2 -> 4:4:4", "median", "stereo matcher", "segmentation",
-                       "opening"), p.pixel_stages))
+    from hdl.centroid import centroid_cycles_after_frame
+    from hdl.gesture_pipeline import pipeline_memory_bits, pipeline_timing, pixel_stage_timing
+    # from the stages' timing and memory functions (nothing is built)
+    p = pipeline_timing(WIDTH, HEIGHT)
+    stages = {STAGE_LABELS[name]: s for name, s in pixel_stage_timing(WIDTH, HEIGHT).items()}
+    memory_bits = pipeline_memory_bits(WIDTH, HEIGHT)
     return {
         "lag_per_stage": {k: s.lag for k, s in stages.items()},
         "cycles_per_stage": {k: s.cycles for k, s in stages.items()},
@@ -56,9 +63,9 @@ def timing():
         "frame_ms_at_100mhz": round(p.frame_cycles / 1e5, 3),
         "fps_at_100mhz": round(100e6 / p.frame_cycles, 1),
         "record_latency_cycles": p.record_cycles,
-        "centroid_cycles_after_frame": p._centroid.cycles_after_frame,
-        "memory_bits": p.memory_bits,
-        "memory_bits_total": sum(p.memory_bits.values()),
+        "centroid_cycles_after_frame": centroid_cycles_after_frame(WIDTH, HEIGHT),
+        "memory_bits": memory_bits,
+        "memory_bits_total": sum(memory_bits.values()),
     }
 
 
@@ -175,31 +182,32 @@ def verilator_clip(frames: int, emissions, baseline: str | None = None, repeat: 
 
 
 def blocks():
+    """(name, build) of each block: ``build()`` makes it, when it is synthesized."""
     from hdl.camera_capture import CameraCapture
     from hdl.centroid import Centroid
-    from hdl.gesture_pipeline import GesturePipeline
+    from hdl.gesture_pipeline import pipeline_stage, pipeline_timing
     from hdl.gesture_spotting import GestureSpotting
     from hdl.median3x3 import Median3x3
     from hdl.moving_average import MovingAverage
     from hdl.opening import Opening
     from hdl.stereo_sync import StereoSynchronizer
     from hdl.ycbcr422 import YCbCr422To444
-    p = GesturePipeline(WIDTH, HEIGHT)
+    flush = pipeline_timing(WIDTH, HEIGHT).flush
     return [
-        ("camera_capture", CameraCapture(WIDTH, HEIGHT)),
+        ("camera_capture", lambda: CameraCapture(WIDTH, HEIGHT)),
         # (both camera domains renamed to the pipeline clock: logic and FIFO memories
         # are the same, only the clock nets differ)
-        ("stereo_sync", StereoSynchronizer(WIDTH, HEIGHT, fifo_depth=2048, threshold=64,
-                                           flush=p.flush, left_domain="sync",
-                                           right_domain="sync")),
-        ("ycbcr422", YCbCr422To444(WIDTH, HEIGHT)),
-        ("median_luma", Median3x3(WIDTH, HEIGHT, pixel_bits=8)),
-        ("segmentation", p._segment),
-        ("opening", Opening(WIDTH, HEIGHT, element="cross", size=11)),
-        ("centroid", Centroid(WIDTH, HEIGHT)),
-        ("moving_average", MovingAverage(coord_bits=10, window=4, frac_bits=8)),
-        ("gesture_spotting", GestureSpotting(point_bits=18, window=8, threshold=30, hold=16,
-                                             frac_bits=8)),
+        ("stereo_sync", lambda: StereoSynchronizer(WIDTH, HEIGHT, fifo_depth=2048, threshold=64,
+                                                   flush=flush, left_domain="sync",
+                                                   right_domain="sync")),
+        ("ycbcr422", lambda: YCbCr422To444(WIDTH, HEIGHT)),
+        ("median_luma", lambda: Median3x3(WIDTH, HEIGHT, pixel_bits=8)),
+        ("segmentation", lambda: pipeline_stage("segmentation", WIDTH, HEIGHT)),
+        ("opening", lambda: Opening(WIDTH, HEIGHT, element="cross", size=11)),
+        ("centroid", lambda: Centroid(WIDTH, HEIGHT)),
+        ("moving_average", lambda: MovingAverage(coord_bits=10, window=4, frac_bits=8)),
+        ("gesture_spotting", lambda: GestureSpotting(point_bits=18, window=8, threshold=30,
+                                                     hold=16, frac_bits=8)),
     ]
 
 
@@ -207,9 +215,9 @@ def synthesis():
     from hdl.synthesis import find_yosys, synthesize
     yosys = find_yosys()
     out = {}
-    for name, dut in blocks():
+    for name, build in blocks():
         t = time.perf_counter()
-        r = synthesize(dut, name, yosys)
+        r = synthesize(build(), name, yosys)
         r["seconds"] = round(time.perf_counter() - t, 1)
         r.pop("path", None)
         out[name] = r

@@ -145,12 +145,13 @@ def gestures(seeds: int, first_seed: int, width: int = 320, height: int = 240):
 
 
 def hardware_memory():
-    from hdl.gesture_pipeline import GesturePipeline
+    from hdl.gesture_pipeline import pipeline_memory_bits
     from sim.calibration import StereoRig, rig_calibration, stereo_rectification
     from sim.model.pipeline import PipelineParams
     rect = stereo_rectification(rig_calibration(StereoRig()))
-    pipeline = GesturePipeline(640, 480, PipelineParams(), rectification=rect)
-    parts = {k: v for k, v in pipeline.memory_bits.items() if k.startswith("rectify")}
+    # the pipeline's memory_bits, from its stages' memory functions (nothing is built)
+    memory_bits = pipeline_memory_bits(640, 480, PipelineParams(), rect)
+    parts = {k: v for k, v in memory_bits.items() if k.startswith("rectify")}
     total = sum(parts.values())
     share = 100.0 * total / DEVICE_M10K_BITS
     reach = rect.max_shift

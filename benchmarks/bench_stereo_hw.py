@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Figures of the stereo-matching hardware (hdl/stereo_matcher.py, issue 4).
 
 * Timing: flush beats, pipeline cycles, latency and clock cycles per frame
@@ -37,20 +36,24 @@ TABLE23 = {"alms": 11977, "registers": 30897, "memory_bits": 661556}
 
 
 def timing(params):
-    from hdl.stereo_matcher import StereoMatcher
-    d = StereoMatcher(**params)
-    rc, rh = params["census_window"] // 2, params["hamming_window"] // 2
+    from hdl.stereo_matcher import matcher_memory_bits, matcher_timing
+    wc, wh = params["census_window"], params["hamming_window"]
+    rc, rh = wc // 2, wh // 2
     w, nd = params["width"], params["max_disparity"]
+    # the StereoMatcher's figures from its timing and memory functions (nothing is built)
+    t = matcher_timing(w, wc, wh, nd)
+    memory_bits = matcher_memory_bits(w, census_window=wc, hamming_window=wh, max_disparity=nd)
+    flush, frame_cycles = t.lag, w * params["height"] + t.lag
     formula = (rc + rh + 1) * (w + 1) + nd - 1
-    assert formula == d.flush
+    assert formula == flush
     return {
-        "flush_beats": d.flush, "pipeline_cycles": d.cycles, "latency_cycles": d.latency,
-        "frame_cycles": d.frame_cycles,
+        "flush_beats": flush, "pipeline_cycles": t.cycles, "latency_cycles": flush + t.cycles,
+        "frame_cycles": frame_cycles,
         "frame_cycles_formula": f"W*H + (Wc//2 + Wh//2 + 1)*(W + 1) + D - 1 = "
                                 f"{w}*{params['height']} + {rc + rh + 1}*{w + 1} + {nd - 1}",
-        "fps_at_100mhz": round(100e6 / d.frame_cycles, 1),
-        "fps_at_50mhz": round(50e6 / d.frame_cycles, 1),
-        "memory_bits": d.memory_bits, "memory_bits_total": sum(d.memory_bits.values()),
+        "fps_at_100mhz": round(100e6 / frame_cycles, 1),
+        "fps_at_50mhz": round(50e6 / frame_cycles, 1),
+        "memory_bits": memory_bits, "memory_bits_total": sum(memory_bits.values()),
     }
 
 
@@ -91,6 +94,7 @@ def amaranth_speed():
 
 
 def modules(p):
+    """(name, build) of each module: ``build()`` makes it, when it is synthesized."""
     from hdl.census import SparseCensus
     from hdl.column_sum import ColumnSum
     from hdl.hamming import HammingDistances
@@ -98,23 +102,23 @@ def modules(p):
     from hdl.median3x3 import Median3x3
     from hdl.row_buffer import RowBuffer
     from hdl.selectors import DisparitySelectors
-    from hdl.shd import SumOfHammingDistances
+    from hdl.shd import shd_cost_bits
     from hdl.window import WindowGenerator
     from hdl.window_sum import WindowSum
     w, h, wc, wh, nd = (p["width"], p["height"], p["census_window"], p["hamming_window"],
                         p["max_disparity"])
     bits = wc * wc // 2
-    shd = SumOfHammingDistances(w, h, bits, wh, nd)
     return [
-        ("row_buffer", RowBuffer(w, wh - wc, 8)),
-        ("window", WindowGenerator(w, h, 8, wc, wh)),
-        ("census", SparseCensus(w, h, wc, 8, separation=wh)),
-        ("hamming", HammingDistances(bits, codes=nd)),
-        ("column_sum", ColumnSum(w, h, wh, nd, bits, bits // 3)),
-        ("window_sum", WindowSum(w, h, wh, nd, wh * bits)),
-        ("selectors", DisparitySelectors(w, h, nd, shd.cost_bits)),
-        ("lrcc", LeftRightCheck(w, h, nd)),
-        ("median", Median3x3(w, h, (nd - 1).bit_length())),
+        ("row_buffer", lambda: RowBuffer(w, wh - wc, 8)),
+        ("window", lambda: WindowGenerator(w, h, 8, wc, wh)),
+        ("census", lambda: SparseCensus(w, h, wc, 8, separation=wh)),
+        ("hamming", lambda: HammingDistances(bits, codes=nd)),
+        ("column_sum", lambda: ColumnSum(w, h, wh, nd, bits, bits // 3)),
+        ("window_sum", lambda: WindowSum(w, h, wh, nd, wh * bits)),
+        ("selectors", lambda: DisparitySelectors(w, h, nd,
+                                                 shd_cost_bits(bits, hamming_window=wh))),
+        ("lrcc", lambda: LeftRightCheck(w, h, nd)),
+        ("median", lambda: Median3x3(w, h, (nd - 1).bit_length())),
     ]
 
 
@@ -122,9 +126,9 @@ def synthesis(yosys):
     from hdl.stereo_matcher import StereoMatcher
     from hdl.synthesis import synthesize
     out = {}
-    for name, dut in modules(THESIS):
+    for name, build in modules(THESIS):
         t = time.perf_counter()
-        r = synthesize(dut, name, yosys)
+        r = synthesize(build(), name, yosys)
         r["seconds"] = round(time.perf_counter() - t, 1)
         out[name] = r
         print(f"  {name:12s} LUTs {r['luts']:6d}  FFs {r['ffs']:6d}  M10K {r['m10k']:3d}  "

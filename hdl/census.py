@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """50 % sparse census transform (thesis §6.2.1, Figs. 7b, 40 and 54).
 
 Bit ``i`` of a code compares the neighbour at ``census_offsets(Wc)[i]`` (the
@@ -15,16 +14,23 @@ from amaranth.lib.wiring import In, Out
 from sim.model.census import CENSUS_WINDOW_RANGE, census_offsets
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window
-from .stage import StageTiming
+from .stage import StageTiming, window_memory_bits
 from .window import WindowGenerator, window_timing
 
-__all__ = ["SparseCensus", "census_timing"]
+__all__ = ["SparseCensus", "census_timing", "census_memory_bits"]
 
 
 def census_timing(width: int, census_window: int) -> StageTiming:
     """The census window's look-ahead; its cycles and the comparison register."""
     window = window_timing(width, census_window)
     return StageTiming(lag=window.lag, cycles=window.cycles + 1)
+
+
+def census_memory_bits(width: int, census_window: int, pixel_bits: int = 8,
+                       separation: int = 0) -> int:
+    """The row buffers of the census window (and of the rows up to V2)."""
+    return window_memory_bits(width, window=census_window, pixel_bits=pixel_bits,
+                              separation=separation)
 
 
 class SparseCensus(wiring.Component):
@@ -56,10 +62,10 @@ class SparseCensus(wiring.Component):
         self.separation = check_int("separation", separation, 0, 200)
         self.offsets = census_offsets(self.census_window)
         self.bits = len(self.offsets)
-        self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=census_window,
-                                       separation=separation)
         self.lag, self.cycles = census_timing(self.width, census_window)
-        self.memory_bits = self._window.memory_bits
+        self.memory_bits = census_memory_bits(self.width, census_window=self.census_window,
+                                              pixel_bits=self.pixel_bits,
+                                              separation=self.separation)
         fields = {"first": 1, "real": 1, "code": self.bits}
         if separation:
             fields["code2"] = self.bits
@@ -77,7 +83,9 @@ class SparseCensus(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.window = win = self._window
+        m.submodules.window = win = WindowGenerator(
+            self.width, self.height, pixel_bits=self.pixel_bits, window=self.census_window,
+            separation=self.separation)
         wiring.connect(m, wiring.flipped(self.i_stream), win.i_stream)
         wp = win.o_stream.payload
         out = self.o_stream.payload

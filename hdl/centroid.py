@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Hand centroid from the image moments of the mask (thesis §7.1, eq. 23-24, Fig. 72).
 
 While the opened hand mask streams past, three accumulators sum the moments
@@ -85,8 +84,6 @@ class Centroid(wiring.Component):
         self.track_gate = check_int("track_gate", track_gate, *TRACK_GATE_RANGE)
         self.hand_rows = check_int("hand_rows", hand_rows, *HAND_ROWS_RANGE)
         self.widths = moment_widths(self.width, self.height)
-        self._div_x = UnsignedDivider(dividend_bits=self.widths.m10, divisor_bits=self.widths.m00)
-        self._div_y = UnsignedDivider(dividend_bits=self.widths.m01, divisor_bits=self.widths.m00)
         self.tracking = bool(self.track_gate or self.hand_rows)
         self.cycles_after_frame = centroid_cycles_after_frame(self.width, self.height,
                                                               self.tracking)
@@ -150,8 +147,10 @@ class Centroid(wiring.Component):
         with m.If(start):
             m.d.sync += area.eq(m00)
 
-        m.submodules.div_x = div_x = self._div_x
-        m.submodules.div_y = div_y = self._div_y
+        m.submodules.div_x = div_x = UnsignedDivider(dividend_bits=self.widths.m10,
+                                                     divisor_bits=self.widths.m00)
+        m.submodules.div_y = div_y = UnsignedDivider(dividend_bits=self.widths.m01,
+                                                     divisor_bits=self.widths.m00)
         for div, dividend in ((div_x, m10), (div_y, m01)):
             m.d.comb += [div.start.eq(start), div.dividend.eq(dividend), div.divisor.eq(m00)]
         # The slower divider's done: both quotients are ready (and held).

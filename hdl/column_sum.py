@@ -18,11 +18,11 @@ therefore keeps only the ``width - d`` columns x >= d, in a memory of its own
 """
 from __future__ import annotations
 
-from amaranth.hdl import Module, Mux, Signal, signed
+from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import bits_for, check_geometry, check_int, check_odd_window, delay
+from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -30,7 +30,7 @@ __all__ = ["ColumnSum", "column_sum_timing"]
 
 
 def column_sum_timing(width: int, hamming_window: int) -> StageTiming:
-    """Look-ahead r * width rows (r = Wh // 2) and 2 cycles."""
+    """Look-ahead r * width rows (r = Wh // 2) and :attr:`ColumnSum.cycles`."""
     return StageTiming(lag=(hamming_window // 2) * width, cycles=ColumnSum.cycles)
 
 
@@ -55,10 +55,19 @@ class ColumnSum(wiring.Component):
     i_stream : payload ``{first, enter, leave}`` at raster position (x, y'):
         ``enter[d]`` = H_d(x, y'), ``leave[d]`` = H_d(x, y' - Wh).
     o_stream : payload ``{first, real, csum}``: ``csum[d]`` = C_d(x, y' - r),
-        the column sum of position (x, y' - r); ``lag`` = r * width, ``cycles`` = 2.
+        the column sum of position (x, y' - r); ``lag`` = r * width, ``cycles`` = 4.
+
+    Cycles: the beat is copied once per :attr:`GROUP` disparities (1), each copy
+    steers its group's address counters, the memories read every cycle (2), the
+    read words are registered (3), then added to the difference of the terms
+    and written back (4). So no beat net reaches all 48 memories (routed on an
+    ECP5 such nets cost up to 10 ns), and a memory's output (4.3 ns from the
+    clock on an ECP5) has a cycle to itself before the adder.
     """
 
-    cycles = 2
+    cycles = 4
+    #: disparities per copy of the beat
+    GROUP = 8
 
     def __init__(self, width: int, height: int, hamming_window: int, max_disparity: int,
                  max_term: int, no_match_cost: int = 0):
@@ -98,49 +107,60 @@ class ColumnSum(wiring.Component):
         leave_ok = pos.registered(lambda x, y: (y >= wh) & (y < h + wh), "leave")
         restart = pos.registered(lambda x, y: y <= 0, "restart")
 
-        # Cycle 1: the difference of the entering and leaving terms; the read words.
+        # Cycle 1: the difference of the entering and leaving terms; the beat,
+        # once per group of disparities.
         deltas = []
         for d in range(nd):
             delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}")
             m.d.sync += delta.eq(Mux(enter_ok, p.enter[d], 0) - Mux(leave_ok, p.leave[d], 0))
             deltas.append(delta)
-        restart_1 = delay(m, restart, 1, "restart")
-        valid_2 = delay(m, beat, 2, "valid")
+        # (waiting for the read as one word: a simulator copies it in one go)
+        waited = delay(m, Cat(*deltas), 2, "deltas")
+        db = self.term_bits + 1
+        deltas = [waited[d * db:(d + 1) * db].as_signed() for d in range(nd)]
+        beats = replicate(m, beat, -(-nd // self.GROUP), "beat")
+        restart_3 = delay(m, restart, 3, "restart")
+        valid_4 = delay(m, beat, 4, "valid")
         # The column sum of the positions without partner: no_match_cost per row inside.
         nmc = self.no_match_cost
         no_match = Signal(cb)
         with m.If(beat & pos.registered(lambda x, y: x == 0, "row_start")):
             m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
                                     - Mux(leave_ok, nmc, 0))
-        partners = pos.thermometer(nd, "partner")  # bit d: x >= d
-        partners_2 = delay(m, partners, 2, "partner2")
-        # Cycle 2: the new column sums, written back and output.
+        # (as it stood after this beat: the next row's may already be counted)
+        no_match_4 = delay(m, no_match, 3, "no_match")
+        partners_1 = delay(m, pos.thermometer(nd, "partner"), 1, "partner1")  # bit d: x >= d
+        partners_4 = delay(m, partners_1, 3, "partner4")
+        x_1 = delay(m, pos.x, 1, "x1")
+        # Cycles 2-4: read (every cycle), register, add and write back.
         for d in range(nd):
             m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
             rd = mem.read_port()
             wr = mem.write_port()
             addr = Signal(range(w - d), name=f"addr_{d}")
-            partner = partners[d] if d else 1
             if d:
                 # x - d as its own counter (+1 per beat from x = d on): an incrementer
-                # and a multiplexer in front of the register, no subtractor
-                with m.If(beat):
-                    m.d.sync += addr.eq(Mux(partner, addr + 1, 0))
-                m.d.comb += [rd.addr.eq(addr), rd.en.eq(beat & partner)]
+                # and a multiplexer in front of the register, no subtractor; it
+                # moves on the copied beat, so in cycle 1 it holds the beat's address
+                with m.If(beats[d // self.GROUP]):
+                    m.d.sync += addr.eq(Mux(partners_1[d], addr + 1, 0))
             else:
-                m.d.comb += [addr.eq(pos.x), rd.addr.eq(addr), rd.en.eq(beat & partner)]
-            partner_2 = partners_2[d] if d else 1
+                m.d.comb += addr.eq(x_1)
+            m.d.comb += [rd.addr.eq(addr), rd.en.eq(1)]
+            stored = Signal(cb, name=f"stored_{d}")
+            m.d.sync += stored.eq(rd.data)
+            partner_4 = partners_4[d] if d else 1
             s_new = Signal(cb, name=f"csum_{d}")
-            m.d.sync += s_new.eq(Mux(restart_1, 0, rd.data) + deltas[d])
+            m.d.sync += s_new.eq(Mux(restart_3, 0, stored) + deltas[d])
             m.d.comb += [
-                wr.addr.eq(delay(m, addr, 2, f"waddr_{d}")),
-                wr.en.eq(valid_2 & partner_2),
+                wr.addr.eq(delay(m, addr, 3, f"waddr_{d}")),
+                wr.en.eq(valid_4 & partner_4),
                 wr.data.eq(s_new),
-                self.o_stream.payload.csum[d].eq(Mux(partner_2, s_new, no_match) if d else s_new),
+                self.o_stream.payload.csum[d].eq(Mux(partner_4, s_new, no_match_4) if d else s_new),
             ]
         m.d.comb += [
-            self.o_stream.valid.eq(valid_2),
-            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 2, "first")),
-            self.o_stream.payload.real.eq(delay(m, out_pos.real, 2, "real")),
+            self.o_stream.valid.eq(valid_4),
+            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 4, "first")),
+            self.o_stream.payload.real.eq(delay(m, out_pos.real, 4, "real")),
         ]
         return m

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Beat delay line: a value delayed by a number of beats, then by free-running
 clock cycles (the skin delay line of the hand segmentation, thesis §6.3, Fig. 58).
 
@@ -23,13 +22,28 @@ from amaranth.lib.wiring import In, Out
 from ._util import PIXEL_BITS_RANGE, check_int, delay
 from .row_buffer import RowBuffer
 
-__all__ = ["BeatDelay", "MEMORY_MIN_BEATS"]
+__all__ = ["BeatDelay", "MEMORY_MIN_BEATS", "delay_memory_bits"]
 
 #: From this many beats on, the line is a memory instead of registers.
 MEMORY_MIN_BEATS = 32
 BITS_RANGE = (1, 1024)
 BEATS_RANGE = (0, 65537)  # RowBuffer lengths up to 65536
 CYCLES_RANGE = (0, 4096)
+
+
+def _lanes(bits: int) -> tuple[int, int]:
+    """Lanes of the memory and bits per lane: RowBuffer lanes hold at most 16
+    bits, so wide values are split."""
+    lanes = -(-bits // PIXEL_BITS_RANGE[1])
+    return lanes, -(-bits // lanes)
+
+
+def delay_memory_bits(bits: int, beats: int) -> int:
+    """Bits of the memory of a :class:`BeatDelay` (0 when it is registers)."""
+    if beats < MEMORY_MIN_BEATS:
+        return 0
+    lanes, lane_bits = _lanes(bits)
+    return (beats - 1) * lanes * lane_bits
 
 
 class BeatDelay(wiring.Component):
@@ -67,15 +81,7 @@ class BeatDelay(wiring.Component):
         self.cycles = check_int("cycles", cycles, *CYCLES_RANGE)
         self.lag = self.beats
         self.uses_memory = self.beats >= MEMORY_MIN_BEATS
-        if self.uses_memory:
-            # RowBuffer lanes hold at most 16 bits: split wide values.
-            lanes = -(-self.bits // PIXEL_BITS_RANGE[1])
-            self._lanes, self._lane_bits = lanes, -(-self.bits // lanes)
-            self._buffer = RowBuffer(length=self.beats - 1, lanes=lanes, pixel_bits=self._lane_bits)
-            self.memory_bits = self._buffer.memory_bits
-        else:
-            self._buffer = None
-            self.memory_bits = 0
+        self.memory_bits = delay_memory_bits(bits=self.bits, beats=self.beats)
         layout = data.StructLayout({"data": self.bits})
         super().__init__({
             "i_stream": In(stream.Signature(layout, always_ready=True)),
@@ -87,12 +93,12 @@ class BeatDelay(wiring.Component):
         beat = self.i_stream.valid
         value = self.i_stream.payload.data
         if self.uses_memory:
-            m.submodules.line = buf = self._buffer
+            lanes, lb = _lanes(self.bits)
+            m.submodules.line = buf = RowBuffer(length=self.beats - 1, lanes=lanes, pixel_bits=lb)
             # RowBuffer samples its input the cycle after the beat.
             held = delay(m, value, 1, "wdata")
-            lb = self._lane_bits
             m.d.comb += buf.beat.eq(beat)
-            for lane in range(self._lanes):
+            for lane in range(lanes):
                 m.d.comb += buf.i_data[lane].eq(held[lane * lb:(lane + 1) * lb])
             beat_delayed = buf.o_data.as_value()[:self.bits]
         else:

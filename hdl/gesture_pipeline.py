@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The whole FPGA side of the recogniser (thesis chapters 5-7): two camera byte
 streams in, one (x, y, gesture flag) record per frame out, bit for bit the golden
 model :func:`sim.model.pipeline.process_frame` / :func:`~sim.model.pipeline.track`.
@@ -49,21 +48,28 @@ from ._util import bits_for
 from .camera_capture import CameraCapture
 from .centroid import Centroid, centroid_cycles_after_frame
 from .gesture_spotting import GestureSpotting
-from .median3x3 import Median3x3, median_timing
+from .lrcc import disparity_bits
+from .median3x3 import Median3x3, median_memory_bits, median_timing
 from .moving_average import MovingAverage
-from .opening import Opening, opening_timing
+from .opening import Opening, opening_memory_bits, opening_timing
 from .raster_position import OVERRUN_ROWS
-from .rectify import Rectifier, rectify_timing
-from .segmentation import HandSegmentation
-from .stage import PixelStage, StageTiming
-from .stereo_matcher import StereoMatcher, matcher_timing
-from .stereo_sync import StereoSynchronizer
+from .rectify import Rectifier, check_rectifier, rectify_memory_bits, rectify_timing
+from .segmentation import HandSegmentation, segmentation_memory_bits
+from .stage import StageTiming
+from .stereo_matcher import StereoMatcher, matcher_memory_bits, matcher_stage, matcher_timing
+from .stereo_sync import StereoSynchronizer, check_fifo
 from .streams import connect_remapped, pixel_signature
 from .ycbcr422 import YCbCr422To444
 
 __all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop", "pipeline_timing",
-           "PipelineTiming"]
+           "PipelineTiming", "pixel_stage_timing", "pipeline_memory_bits", "pipeline_stage",
+           "PIPELINE_STAGES"]
 
+#: The stages of :class:`GesturePipeline` by name, in dataflow order
+#: (:func:`pipeline_stage`); ``rectify_*`` only with a rectification.
+PIPELINE_STAGES = ("capture_left", "capture_right", "synchronizer", "to444_left", "to444_right",
+                   "rectify_left", "rectify_right", "median_left", "median_right", "matcher",
+                   "segmentation", "opening", "centroid", "moving_average", "spotting")
 
 
 def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
@@ -88,6 +94,41 @@ class PipelineTiming(NamedTuple):
     record_cycles: int
 
 
+def _check(width: int, height: int, params, rectification) -> None:
+    """The checks of the pipeline's parameters, its stages' included."""
+    if not isinstance(params, PipelineParams):
+        raise ValueError(f"params must be a PipelineParams, got {type(params).__name__}")
+    params.validate(width, height)        # the frame size too: one range, the model's
+    check_rectification(rectification, width, height)
+    if rectification is not None:
+        reach_x, reach_y = rectification.max_shift
+        for grid, lanes in ((rectification.left, 3), (rectification.right, 1)):
+            check_rectifier(width, height, grid, lanes=lanes,
+                            interpolation=rectification.interpolation,
+                            max_shift_x=reach_x, max_shift_y=reach_y)
+
+
+def pixel_stage_timing(width: int, height: int, params: PipelineParams = PipelineParams(),
+                       rectification: StereoRectification | None = None) -> dict:
+    """``lag`` and ``cycles`` of the pixel stages of one camera's path through
+    :class:`GesturePipeline` (:class:`hdl.stage.PixelStage`), by stage name in
+    dataflow order, from each stage's ``*_timing`` function (nothing is built).
+
+    Raises ``ValueError`` as :class:`GesturePipeline` does for its parameters.
+    """
+    _check(width, height, params, rectification)
+    p = params
+    stages = {"to444_left": StageTiming(YCbCr422To444.lag, YCbCr422To444.cycles)}
+    if rectification is not None:
+        stages["rectify_left"] = rectify_timing(width, *rectification.max_shift)
+    stages["median_left"] = median_timing(width)
+    stages["matcher"] = matcher_timing(width, p.census_window, p.hamming_window,
+                                       p.max_disparity)
+    stages["segmentation"] = StageTiming(HandSegmentation.lag, HandSegmentation.cycles)
+    stages["opening"] = opening_timing(width, resolve_element(p.opening_shape, p.opening_size))
+    return stages
+
+
 def pipeline_timing(width: int, height: int, params: PipelineParams = PipelineParams(),
                     rectification: StereoRectification | None = None) -> PipelineTiming:
     """The timing of :class:`GesturePipeline` from its parameters alone (nothing
@@ -96,17 +137,7 @@ def pipeline_timing(width: int, height: int, params: PipelineParams = PipelinePa
     Raises ``ValueError`` as :meth:`PipelineParams.validate` does, or when the
     windows look further ahead than the position counters run past a frame.
     """
-    params.validate(width, height)
-    check_rectification(rectification, width, height)
-    p = params
-    element = resolve_element(p.opening_shape, p.opening_size)
-    rectify = [] if rectification is None else [rectify_timing(width,
-                                                               *rectification.max_shift)]
-    pixel = [StageTiming(YCbCr422To444.lag, YCbCr422To444.cycles), *rectify,
-             median_timing(width),
-             matcher_timing(width, p.census_window, p.hamming_window, p.max_disparity),
-             StageTiming(HandSegmentation.lag, HandSegmentation.cycles),
-             opening_timing(width, element)]
+    pixel = list(pixel_stage_timing(width, height, params, rectification).values())
     flush = sum(s.lag for s in pixel)
     if flush > OVERRUN_ROWS * width:
         raise ValueError(f"the windows look {flush} beats ahead, more than "
@@ -121,6 +152,96 @@ def pipeline_timing(width: int, height: int, params: PipelineParams = PipelinePa
     record_cycles = (flush + pixel_cycles + centroid_cycles
                      + MovingAverage.cycles + GestureSpotting.cycles + 1)
     return PipelineTiming(flush, pixel_cycles, width * height + flush, record_cycles)
+
+
+def pipeline_memory_bits(width: int, height: int, params: PipelineParams = PipelineParams(),
+                         rectification: StereoRectification | None = None) -> dict:
+    """The memory of each pixel stage of :class:`GesturePipeline` (its
+    ``memory_bits``), from the stages' memory functions (nothing is built)."""
+    p = params
+    pixel = pixel_stage_timing(width, height, params, rectification)
+    bits = {}
+    if rectification is not None:
+        reach_y = rectification.max_shift[1]
+        for side, grid, lanes in (("left", rectification.left, 3),
+                                  ("right", rectification.right, 1)):
+            for k, v in rectify_memory_bits(width, grid, lanes=lanes,
+                                            max_shift_y=reach_y).items():
+                bits[f"rectify {side} {k}"] = v
+    med, mat = pixel["median_left"], pixel["matcher"]
+    element = resolve_element(p.opening_shape, p.opening_size)
+    return {
+        **bits,
+        "median row buffers": 2 * median_memory_bits(width, pixel_bits=8),
+        **{f"matcher {k}": v for k, v in matcher_memory_bits(
+            width, census_window=p.census_window, hamming_window=p.hamming_window,
+            max_disparity=p.max_disparity, pixel_bits=8).items()},
+        "skin delay line": segmentation_memory_bits(skin_delay_beats=med.lag + mat.lag),
+        "opening row buffers": opening_memory_bits(width, element),
+    }
+
+
+def pipeline_stage(name: str, width: int, height: int, params: PipelineParams = PipelineParams(),
+                   *, rectification: StereoRectification | None = None, fifo_depth: int = 2048,
+                   sync_threshold: int = 64):
+    """The stage ``name`` of a :class:`GesturePipeline` with these parameters (its
+    own), built alone as its :meth:`~GesturePipeline.elaborate` builds it.
+
+    ``name`` is one of :data:`PIPELINE_STAGES` (``rectify_*`` only with a
+    ``rectification``) or ``matcher.`` and a stage of the matcher
+    (:func:`~hdl.stereo_matcher.matcher_stage`: ``matcher.census_left``,
+    ``matcher.shd.columns``, ...). Nothing else is built.
+
+    Raises ``ValueError`` as :class:`GesturePipeline` does, or for another name.
+    """
+    flush = pipeline_timing(width, height, params, rectification).flush    # (checks them)
+    p = params
+    if name in ("capture_left", "capture_right"):
+        return CameraCapture(width, height)
+    if name == "synchronizer":
+        return StereoSynchronizer(width, height, fifo_depth=fifo_depth,
+                                  threshold=min(sync_threshold, width * height), flush=flush)
+    if name in ("to444_left", "to444_right"):
+        return YCbCr422To444(width, height)
+    if name in ("rectify_left", "rectify_right") and rectification is not None:
+        # both with the larger reach of the two, so that they keep step
+        reach_x, reach_y = rectification.max_shift
+        grid, lanes = ((rectification.left, 3) if name == "rectify_left"
+                       else (rectification.right, 1))
+        return Rectifier(width, height, grid, lanes=lanes,
+                         interpolation=rectification.interpolation,
+                         max_shift_x=reach_x, max_shift_y=reach_y)
+    if name in ("median_left", "median_right"):
+        return Median3x3(width, height, pixel_bits=8)
+    matcher = dict(census_window=p.census_window, hamming_window=p.hamming_window,
+                   max_disparity=p.max_disparity, pixel_bits=8, no_match_cost=p.no_match_cost)
+    if name == "matcher":
+        return StereoMatcher(width, height, **matcher, external_flush=True)
+    if name.startswith("matcher."):
+        return matcher_stage(name[len("matcher."):], width, height, **matcher)
+    if name == "segmentation":
+        # the skin bits wait for the disparities of their pixels
+        med = median_timing(width)
+        mat = matcher_timing(width, p.census_window, p.hamming_window, p.max_disparity)
+        return HandSegmentation(
+            width, height, max_disparity=p.max_disparity, skin_cb=p.skin_cb, skin_cr=p.skin_cr,
+            band_low=p.band_low, band_high=p.band_high,
+            skin_delay_beats=med.lag + mat.lag, skin_delay_cycles=med.cycles + mat.cycles)
+    if name == "opening":
+        return Opening(width, height, element=p.opening_shape, size=p.opening_size)
+    if name == "centroid":
+        return Centroid(width, height, track_gate=p.track_gate, hand_rows=p.hand_rows)
+    coord = bits_for(max(width, height) - 1)
+    if name == "moving_average":
+        return MovingAverage(coord_bits=coord, window=p.average_window, frac_bits=p.frac_bits)
+    if name == "spotting":
+        return GestureSpotting(point_bits=coord + p.frac_bits, window=p.spot_window,
+                               threshold=p.spot_threshold, hold=p.spot_hold,
+                               frac_bits=p.frac_bits)
+    names = [n for n in PIPELINE_STAGES
+             if rectification is not None or not n.startswith("rectify_")]
+    raise ValueError(f"stage must be one of {', '.join(names)} or matcher.<stage>, "
+                     f"got {name!r}")
 
 
 class GesturePipeline(wiring.Component):
@@ -159,63 +280,25 @@ class GesturePipeline(wiring.Component):
                  params: PipelineParams = PipelineParams(), *,
                  rectification: StereoRectification | None = None, fifo_depth: int = 2048,
                  sync_threshold: int = 64):
-        if not isinstance(params, PipelineParams):
-            raise ValueError(f"params must be a PipelineParams, got {type(params).__name__}")
-        params.validate(width, height)        # the frame size too: one range, the model's
-        check_rectification(rectification, width, height)
-        self.width, self.height, self.params = width, height, params
-        self.rectification = rectification
-        p = params
-        self._capture = [CameraCapture(width, height) for _ in range(2)]
-        self._to444 = [YCbCr422To444(width, height) for _ in range(2)]
-        if rectification is None:
-            self._rectify = []
-        else:
-            reach_x, reach_y = rectification.max_shift
-            self._rectify = [
-                Rectifier(width, height, grid, lanes=lanes,
-                          interpolation=rectification.interpolation,
-                          max_shift_x=reach_x, max_shift_y=reach_y)
-                for grid, lanes in ((rectification.left, 3), (rectification.right, 1))]
-        self._median = [Median3x3(width, height, pixel_bits=8) for _ in range(2)]
-        self._matcher = StereoMatcher(width, height, census_window=p.census_window,
-                                      hamming_window=p.hamming_window,
-                                      max_disparity=p.max_disparity, pixel_bits=8,
-                                      no_match_cost=p.no_match_cost, external_flush=True)
-        med, mat = self._median[0], self._matcher
-        self._segment = HandSegmentation(
-            width, height, max_disparity=p.max_disparity, skin_cb=p.skin_cb, skin_cr=p.skin_cr,
-            band_low=p.band_low, band_high=p.band_high,
-            skin_delay_beats=med.lag + mat.lag, skin_delay_cycles=med.cycles + mat.cycles)
-        self._opening = Opening(width, height, element=p.opening_shape, size=p.opening_size)
-        self._centroid = Centroid(width, height, track_gate=p.track_gate,
-                                  hand_rows=p.hand_rows)
-        coord = bits_for(max(width, height) - 1)
-        self._average = MovingAverage(coord_bits=coord, window=p.average_window,
-                                      frac_bits=p.frac_bits)
-        self._spotting = GestureSpotting(point_bits=coord + p.frac_bits, window=p.spot_window,
-                                         threshold=p.spot_threshold, hold=p.spot_hold,
-                                         frac_bits=p.frac_bits)
-        #: the pixel stages in order (:class:`hdl.stage.PixelStage`)
-        self.pixel_stages: list[PixelStage] = [self._to444[0], *self._rectify[:1], med, mat,
-                                               self._segment, self._opening]
-        #: :func:`pipeline_timing` of this pipeline, field by field
+        #: :func:`pipeline_timing` of this pipeline, field by field (it checks
+        #: the parameters, its stages' included)
         self.flush, self.pixel_cycles, self.frame_cycles, self.record_cycles = \
             pipeline_timing(width, height, params, rectification)
-        self._sync = StereoSynchronizer(width, height, fifo_depth=fifo_depth,
-                                        threshold=min(sync_threshold, width * height),
-                                        flush=self.flush)
-        self.memory_bits = {
-            **{f"rectify {side} {k}": v for side, r in zip(("left", "right"), self._rectify)
-               for k, v in r.memory_bits.items()},
-            "median row buffers": 2 * med.memory_bits,
-            **{f"matcher {k}": v for k, v in mat.memory_bits.items()},
-            "skin delay line": self._segment.memory_bits,
-            "opening row buffers": self._opening.memory_bits,
-        }
+        check_fifo(fifo_depth, min(sync_threshold, width * height), width * height)
+        self.width, self.height, self.params = width, height, params
+        self.rectification = rectification
+        self.fifo_depth, self.sync_threshold = fifo_depth, sync_threshold
+        p = params
+        #: names of its stages (:meth:`stage`), in dataflow order
+        self.stage_names = tuple(name for name in PIPELINE_STAGES
+                                 if rectification is not None or not name.startswith("rectify_"))
+        #: names of the pixel stages of one camera's path, in order
+        #: (:class:`hdl.stage.PixelStage`, :func:`pixel_stage_timing`)
+        self.pixel_stage_names = tuple(pixel_stage_timing(width, height, params, rectification))
+        self.memory_bits = pipeline_memory_bits(width, height, params, rectification)
         # the camera's side of the link drives the pins
         pins = wiring.Signature({"vsync": Out(1), "href": Out(1), "data": Out(8)})
-        self.disparity_bits = mat.disparity_bits
+        self.disparity_bits = disparity_bits(p.max_disparity)
         super().__init__({
             "left": In(pins), "right": In(pins),
             "start": In(1, init=1), "pause": In(1),
@@ -227,27 +310,22 @@ class GesturePipeline(wiring.Component):
             "threshold": In(bits_for(p.max_disparity), init=p.lrcc_threshold),
         })
 
-    @property
-    def stages(self) -> dict:
-        """The stage components by name, in dataflow order: the ones
-        :meth:`elaborate` wires (a caller may elaborate one alone instead, as the
-        place-and-route check does)."""
-        return {"capture_left": self._capture[0], "capture_right": self._capture[1],
-                "synchronizer": self._sync,
-                "to444_left": self._to444[0], "to444_right": self._to444[1],
-                **{f"rectify_{side}": r for side, r in zip(("left", "right"), self._rectify)},
-                "median_left": self._median[0], "median_right": self._median[1],
-                "matcher": self._matcher, "segmentation": self._segment,
-                "opening": self._opening, "centroid": self._centroid,
-                "moving_average": self._average, "spotting": self._spotting}
+    def stage(self, name: str):
+        """The stage ``name`` (of :attr:`stage_names`, or ``matcher.`` and a stage
+        of the matcher), freshly built with the parameters it has here, as
+        :meth:`elaborate` builds its stages; only that stage is built (the
+        place-and-route check elaborates one alone)."""
+        return pipeline_stage(name, self.width, self.height, self.params,
+                              rectification=self.rectification, fifo_depth=self.fifo_depth,
+                              sync_threshold=self.sync_threshold)
 
     def elaborate(self, platform):
         m = Module()
         # --- capture (camera clock domains) and synchroniser -------------------------
-        sync = self._sync
-        m.submodules.synchronizer = sync
-        for side, cap, domain, into in (("left", self._capture[0], "cam_left", sync.i_left),
-                                        ("right", self._capture[1], "cam_right", sync.i_right)):
+        m.submodules.synchronizer = sync = self.stage("synchronizer")
+        for side, domain, into in (("left", "cam_left", sync.i_left),
+                                   ("right", "cam_right", sync.i_right)):
+            cap = self.stage(f"capture_{side}")
             m.submodules[f"capture_{side}"] = DomainRenamer(domain)(cap)
             pins = getattr(self, side)
             m.d.comb += [cap.vsync.eq(pins.vsync), cap.href.eq(pins.href),
@@ -259,7 +337,8 @@ class GesturePipeline(wiring.Component):
         frame = sync.o_stream
 
         # --- pixel stages (sync domain), one beat per synchroniser beat ----------------
-        to444, median = self._to444, self._median
+        to444 = [self.stage("to444_left"), self.stage("to444_right")]
+        median = [self.stage("median_left"), self.stage("median_right")]
         colour = []          # per camera: the stream of Y (Cb, Cr) the median sees
         for k, side in enumerate(("left", "right")):
             m.submodules[f"to444_{side}"] = to444[k]
@@ -267,8 +346,8 @@ class GesturePipeline(wiring.Component):
             word = getattr(frame.payload, side)
             connect_remapped(m, frame, to444[k].i_stream, luma=word.luma, chroma=word.chroma)
             ycc = to444[k].o_stream
-            if self._rectify:
-                rect = self._rectify[k]
+            if self.rectification is not None:
+                rect = self.stage(f"rectify_{side}")
                 m.submodules[f"rectify_{side}"] = rect
                 lanes = [ycc.payload.y, ycc.payload.cb, ycc.payload.cr][:rect.lanes]
                 connect_remapped(m, ycc, rect.i_stream, pixel=Cat(*lanes))
@@ -277,23 +356,23 @@ class GesturePipeline(wiring.Component):
             else:
                 colour.append((ycc, ycc.payload.y, ycc.payload.cb, ycc.payload.cr))
             connect_remapped(m, colour[k][0], median[k].i_stream, pixel=colour[k][1])
-        m.submodules.matcher = mat = self._matcher
+        m.submodules.matcher = mat = self.stage("matcher")
         m.d.comb += mat.threshold.eq(self.threshold)
         connect_remapped(m, median[0].o_stream, mat.i_stream,
                          left=median[0].o_stream.payload.pixel,
                          right=median[1].o_stream.payload.pixel)
-        m.submodules.segmentation = seg = self._segment
+        m.submodules.segmentation = seg = self.stage("segmentation")
         chroma, _, cb, cr = colour[0]
         connect_remapped(m, chroma, seg.i_chroma, cb=cb, cr=cr)
         wiring.connect(m, mat.o_stream, seg.i_disparity)
-        m.submodules.opening = opening = self._opening
+        m.submodules.opening = opening = self.stage("opening")
         connect_remapped(m, seg.o_stream, opening.i_stream, pixel=seg.o_stream.payload.hand)
-        m.submodules.centroid = cen = self._centroid
+        m.submodules.centroid = cen = self.stage("centroid")
         wiring.connect(m, opening.o_stream, cen.i_stream)
 
         # --- per-frame features -------------------------------------------------------
-        m.submodules.moving_average = avg = self._average
-        m.submodules.spotting = spot = self._spotting
+        m.submodules.moving_average = avg = self.stage("moving_average")
+        m.submodules.spotting = spot = self.stage("spotting")
         c = cen.o_stream.payload
         connect_remapped(m, cen.o_stream, avg.i_stream, valid=c.area != 0)   # a hand was seen
         connect_remapped(m, avg.o_stream, spot.i_stream)

@@ -16,7 +16,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import bits_for, check_geometry, check_int, delay
+from ._util import bits_for, check_geometry, check_int, delay, replicate
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -29,7 +29,8 @@ def disparity_bits(max_disparity: int) -> int:
 
 
 def lrcc_timing(max_disparity: int) -> StageTiming:
-    """Look-ahead D - 1 (the R2L disparities of the pixels to the right) and 3 cycles."""
+    """Look-ahead D - 1 (the R2L disparities of the pixels to the right) and
+    :attr:`LeftRightCheck.cycles`."""
     return StageTiming(lag=max_disparity - 1, cycles=LeftRightCheck.cycles)
 
 
@@ -47,7 +48,8 @@ class LeftRightCheck(wiring.Component):
     i_stream : payload ``{first, l2r, r2l}`` as emitted by
         :class:`~hdl.selectors.DisparitySelectors`
     o_stream : payload ``{first, real, disparity}``, ``lag`` = D - 1,
-        ``cycles`` = 3.
+        ``cycles`` = 5 (an input register whose beat is copied once per
+        history, the D:1 multiplexer in two steps, the difference, the check).
 
     Attributes
     ----------
@@ -56,8 +58,10 @@ class LeftRightCheck(wiring.Component):
         any of them in one cycle).
     """
 
-    cycles = 3
+    cycles = 5
     memory_bits = 0
+    #: d bits of the first multiplexer step (8 R2L values per group)
+    MUX_LOW_BITS = 3
 
     def __init__(self, width: int, height: int, max_disparity: int):
         self.max_disparity = check_int("max_disparity", max_disparity, *MAX_DISPARITY_RANGE)
@@ -76,8 +80,11 @@ class LeftRightCheck(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         nd, db = self.max_disparity, self.disparity_bits
-        beat = self.i_stream.valid
-        p = self.i_stream.payload
+        # An input register; the beat once per history (one net for both
+        # histories spanned them)
+        p = Signal(self.i_stream.payload.shape(), name="pair")
+        m.d.sync += p.eq(self.i_stream.payload)
+        beat, l2r_beat, r2l_beat = replicate(m, self.i_stream.valid, 3, "beat")
         pos = RasterPosition(self.width, self.height, self.lag, "pix").attach(m, beat, p.first)
 
         l2r_hist = [p.l2r]
@@ -85,17 +92,28 @@ class LeftRightCheck(wiring.Component):
         for k in range(1, nd):
             a = Signal(db, name=f"l2r_dl{k}")
             b = Signal(db, name=f"r2l_dl{k}")
-            with m.If(beat):
-                m.d.sync += [a.eq(l2r_hist[k - 1]), b.eq(r2l_hist[k - 1])]
+            with m.If(l2r_beat):
+                m.d.sync += a.eq(l2r_hist[k - 1])
+            with m.If(r2l_beat):
+                m.d.sync += b.eq(r2l_hist[k - 1])
             l2r_hist.append(a)
             r2l_hist.append(b)
         d = l2r_hist[nd - 1]
 
-        # Stage 1: R2L of the partner, and whether the partner is outside.
+        # Stage 1: R2L of the partner in two steps of the D:1 multiplexer (by the
+        # low bits of d, then the high: one 48:1 step ran at 8.7 ns routed), and
+        # whether the partner is outside.
+        low = min(self.MUX_LOW_BITS, db)
+        groups = [r2l_hist[k:k + (1 << low)] for k in range(0, nd, 1 << low)]
+        parts = [Signal(db, name=f"r2l_part{g}") for g in range(len(groups))]
+        d0, outside0 = Signal(db), Signal()
+        m.d.sync += [part.eq(Array(group)[d[:low]]) for part, group in zip(parts, groups)]
+        m.d.sync += [d0.eq(d), outside0.eq(pos.x < d)]
         d1 = Signal(db)
         seen = Signal(db)
         outside = Signal()
-        m.d.sync += [d1.eq(d), seen.eq(Array(r2l_hist)[d]), outside.eq(pos.x < d)]
+        m.d.sync += [d1.eq(d0), outside.eq(outside0),
+                     seen.eq(Array(parts)[d0[low:]] if len(parts) > 1 else parts[0])]
         # Stage 2: |d - R2L(x - d)| (both differences in parallel, one multiplexer).
         d2 = Signal(db)
         mag = Signal(db)
@@ -107,8 +125,8 @@ class LeftRightCheck(wiring.Component):
         out = self.o_stream.payload
         m.d.sync += out.disparity.eq(Mux(keep, d2, 0))
         m.d.comb += [
-            self.o_stream.valid.eq(delay(m, beat, 3, "valid")),
-            out.first.eq(delay(m, pos.is_first, 3, "first")),
-            out.real.eq(delay(m, pos.real, 3, "real")),
+            self.o_stream.valid.eq(delay(m, beat, 4, "valid")),
+            out.first.eq(delay(m, pos.is_first, 4, "first")),
+            out.real.eq(delay(m, pos.real, 4, "real")),
         ]
         return m

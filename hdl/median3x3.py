@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """3x3 median filter (thesis §6.1, Figs. 36-37), generic in the pixel width so the
 camera pipeline (8-bit luma) and the stereo matcher (disparities) share it.
 
@@ -15,11 +14,11 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, delay
-from .stage import StageTiming
+from .stage import StageTiming, window_memory_bits
 from .streams import pixel_signature
 from .window import WindowGenerator, window_timing
 
-__all__ = ["Median3x3", "median_timing"]
+__all__ = ["Median3x3", "median_timing", "median_memory_bits"]
 
 TAPS = 9
 
@@ -29,6 +28,11 @@ def median_timing(width: int) -> StageTiming:
     output register."""
     window = window_timing(width, 3)
     return StageTiming(lag=window.lag, cycles=window.cycles + TAPS + 1)
+
+
+def median_memory_bits(width: int, pixel_bits: int) -> int:
+    """The row buffers of the 3x3 window (two rows of ``width - 3`` pixels)."""
+    return window_memory_bits(width, window=3, pixel_bits=pixel_bits)
 
 
 class Median3x3(wiring.Component):
@@ -50,9 +54,8 @@ class Median3x3(wiring.Component):
     def __init__(self, width: int, height: int, pixel_bits: int = 8):
         self.width, self.height = check_geometry(width, height)
         self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
-        self._window = WindowGenerator(width, height, pixel_bits=pixel_bits, window=3)
         self.lag, self.cycles = median_timing(self.width)
-        self.memory_bits = self._window.memory_bits
+        self.memory_bits = median_memory_bits(self.width, pixel_bits=self.pixel_bits)
         super().__init__({
             "i_stream": In(pixel_signature(pixel_bits)),
             "o_stream": Out(pixel_signature(pixel_bits, real=True)),
@@ -60,7 +63,8 @@ class Median3x3(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.window = win = self._window
+        m.submodules.window = win = WindowGenerator(self.width, self.height,
+                                                    pixel_bits=self.pixel_bits, window=3)
         wiring.connect(m, wiring.flipped(self.i_stream), win.i_stream)
         wp = win.o_stream.payload
         pb = self.pixel_bits

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Binary erosion and dilation (thesis §6.4, Figs. 63-69).
 
 A :class:`~hdl.window.WindowGenerator` of one-bit pixels gives the k x k
@@ -20,11 +19,11 @@ from amaranth.lib.wiring import In, Out
 from sim.model.morphology import resolve_element
 
 from ._util import check_geometry, delay
-from .stage import StageTiming
+from .stage import StageTiming, window_memory_bits
 from .streams import pixel_signature
 from .window import WindowGenerator, window_timing
 
-__all__ = ["BinaryMorphology", "FANIN", "morphology_timing"]
+__all__ = ["BinaryMorphology", "FANIN", "morphology_timing", "morphology_memory_bits"]
 
 FANIN = 6
 
@@ -45,6 +44,12 @@ def morphology_timing(width: int, element) -> StageTiming:
     window = window_timing(width, len(element))
     return StageTiming(lag=window.lag,
                        cycles=window.cycles + 1 + _tree_levels(int(element.sum())) + 1)
+
+
+def morphology_memory_bits(width: int, element) -> int:
+    """The row buffers of the element's window, one bit per pixel (``element``
+    as for :func:`morphology_timing`)."""
+    return window_memory_bits(width, window=len(element), pixel_bits=1)
 
 
 class BinaryMorphology(wiring.Component):
@@ -86,9 +91,8 @@ class BinaryMorphology(wiring.Component):
         self.width, self.height = check_geometry(width, height, min_width=self.size + 2)
         self.taps = int(self.element.sum())
         self.tree_levels = _tree_levels(self.taps)
-        self._window = WindowGenerator(self.width, self.height, pixel_bits=1, window=self.size)
         self.lag, self.cycles = morphology_timing(self.width, self.element)
-        self.memory_bits = self._window.memory_bits
+        self.memory_bits = morphology_memory_bits(self.width, self.element)
         super().__init__({
             "dilate": In(1),
             "i_stream": In(pixel_signature(1)),
@@ -97,7 +101,8 @@ class BinaryMorphology(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.window = win = self._window
+        m.submodules.window = win = WindowGenerator(self.width, self.height, pixel_bits=1,
+                                                    window=self.size)
         wiring.connect(m, wiring.flipped(self.i_stream), win.i_stream)
         wp = win.o_stream.payload
 

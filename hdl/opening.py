@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Morphological opening of the hand mask (thesis §6.4, Fig. 100): an erosion
 then a dilation by the same, unreflected element, two
 :class:`~hdl.morphology.BinaryMorphology` with constant D/E selects, as
@@ -11,17 +10,27 @@ from __future__ import annotations
 
 from amaranth.hdl import Module
 from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
 
-from .morphology import BinaryMorphology, morphology_timing
+from sim.model.morphology import resolve_element
+
+from ._util import check_geometry
+from .morphology import BinaryMorphology, morphology_memory_bits, morphology_timing
 from .stage import StageTiming
+from .streams import pixel_signature
 
-__all__ = ["Opening", "opening_timing"]
+__all__ = ["Opening", "opening_timing", "opening_memory_bits"]
 
 
 def opening_timing(width: int, element) -> StageTiming:
     """An erosion then a dilation with the same element."""
     one = morphology_timing(width, element)
     return StageTiming(lag=2 * one.lag, cycles=2 * one.cycles)
+
+
+def opening_memory_bits(width: int, element) -> int:
+    """The row buffers of the erosion and the dilation."""
+    return 2 * morphology_memory_bits(width, element)
 
 
 class Opening(wiring.Component):
@@ -47,21 +56,24 @@ class Opening(wiring.Component):
     """
 
     def __init__(self, width: int, height: int, element="cross", size: int = 11):
-        self._erosion = BinaryMorphology(width, height, element=element, size=size)
-        self._dilation = BinaryMorphology(width, height, element=element, size=size)
-        self.width, self.height = self._erosion.width, self._erosion.height
-        self.element = self._erosion.element
-        self.size = self._erosion.size
+        # the checks of BinaryMorphology, in its order
+        self.element = resolve_element(element, size if isinstance(element, str) else None)
+        self.size = self.element.shape[0]
+        self.width, self.height = check_geometry(width, height, min_width=self.size + 2)
         self.lag, self.cycles = opening_timing(self.width, self.element)
-        self.memory_bits = self._erosion.memory_bits + self._dilation.memory_bits
+        self.memory_bits = opening_memory_bits(self.width, self.element)
         # the mask streams of the two stages it chains
-        stage = self._erosion.signature.members
-        super().__init__({"i_stream": stage["i_stream"], "o_stream": stage["o_stream"]})
+        super().__init__({
+            "i_stream": In(pixel_signature(1)),
+            "o_stream": Out(pixel_signature(1, real=True)),
+        })
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.erosion = ero = self._erosion
-        m.submodules.dilation = dil = self._dilation
+        m.submodules.erosion = ero = BinaryMorphology(self.width, self.height,
+                                                      element=self.element)
+        m.submodules.dilation = dil = BinaryMorphology(self.width, self.height,
+                                                       element=self.element)
         m.d.comb += [ero.dilate.eq(0), dil.dilate.eq(1)]
         wiring.connect(m, wiring.flipped(self.i_stream), ero.i_stream)
         m.d.comb += [

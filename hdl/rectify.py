@@ -35,7 +35,8 @@ from ._util import bits_for, check_geometry, check_int, delay
 from .raster_position import OVERRUN_ROWS, RasterPosition
 from .stage import StageTiming
 
-__all__ = ["Rectifier", "rectify_timing", "ring_rows", "MAX_SHIFT_Y"]
+__all__ = ["Rectifier", "rectify_timing", "ring_rows", "check_rectifier", "rectify_memory_bits",
+           "MAX_SHIFT_Y"]
 
 #: Largest vertical reach of the row buffers, rows (the ring stays within the
 #: position counters' overrun).
@@ -54,6 +55,63 @@ def rectify_timing(width: int, max_shift_x: int, max_shift_y: int) -> StageTimin
     own, for 100 MHz routed on an ECP5)."""
     return StageTiming(lag=(max_shift_y + 1) * width + max_shift_x + 2,
                        cycles=Rectifier.cycles)
+
+
+def check_rectifier(width: int, height: int, grid: RectifyGrid, *, lanes: int = 1,
+                    interpolation: str = "bilinear", max_shift_x: int | None = None,
+                    max_shift_y: int | None = None) -> tuple[int, int, int, int, int]:
+    """Check the parameters of a :class:`Rectifier` (``ValueError`` naming the
+    first bad one) without building it; returns ``(width, height, lanes,
+    max_shift_x, max_shift_y)``, the shifts defaulting to the grid's."""
+    if not isinstance(grid, RectifyGrid):
+        raise ValueError(f"grid must be a RectifyGrid, got {type(grid).__name__}")
+    need_x, need_y = grid.max_shift
+    max_shift_y = check_int("max_shift_y", need_y if max_shift_y is None else max_shift_y,
+                            need_y, MAX_SHIFT_Y)
+    max_shift_x = check_int("max_shift_x", need_x if max_shift_x is None else max_shift_x,
+                            need_x, 4096)
+    # the ring's writes trail the beat by 2 cycles and its reads by 9: a row
+    # must outlast them (width >= Hmax + 10; 2 Hmax + 12 keeps a margin)
+    width, height = check_geometry(width, height, min_width=2 * max_shift_x + 12)
+    if width % 2:
+        raise ValueError(f"width must be even (the banks split columns by parity), "
+                         f"got {width}")
+    if (grid.width, grid.height) != (width, height):
+        raise ValueError(f"grid is for {grid.width}x{grid.height} frames, not "
+                         f"{width}x{height}")
+    lanes = check_int("lanes", lanes, 1, 4)
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(f"interpolation must be one of {', '.join(INTERPOLATIONS)}, "
+                         f"got {interpolation!r}")
+    if width - grid.dx.shape[1] < 6:
+        # a row's map line is written while the row before is output
+        raise ValueError(f"grid_step {grid.grid_step} is too fine for width {width}: "
+                         f"the grid's {grid.dx.shape[1]} columns need width - 6 beats")
+    return width, height, lanes, max_shift_x, max_shift_y
+
+
+def _map_bits(grid: RectifyGrid) -> tuple[int, int, int]:
+    """Signed bits of a grid value, bits of a line value and address bits of a
+    line memory's half (even or odd grid columns)."""
+    limit = int(max(np.abs(grid.dx).max(), np.abs(grid.dy).max(), 1))
+    grid_bits = bits_for(limit) + 1
+    step_bits = grid.grid_step.bit_length() - 1
+    line_bits = grid_bits + step_bits + 1
+    line_col_bits = max(1, ((grid.dx.shape[1] + 1) // 2 - 1).bit_length())
+    return grid_bits, line_bits, line_col_bits
+
+
+def rectify_memory_bits(width: int, grid: RectifyGrid, *, lanes: int = 1,
+                        max_shift_y: int) -> dict:
+    """The ``memory_bits`` of a :class:`Rectifier` with these (checked) parameters:
+    the ring of image rows, the map grid ROM and the two line memories."""
+    grid_bits, line_bits, line_col_bits = _map_bits(grid)
+    grid_rows, grid_cols = grid.dx.shape
+    return {
+        "row buffers": ring_rows(max_shift_y) * width * 8 * lanes,
+        "map grid": grid_rows * grid_cols * 2 * grid_bits,
+        "map line": 2 * (2 << line_col_bits) * 2 * line_bits,
+    }
 
 
 class Rectifier(wiring.Component):
@@ -91,48 +149,18 @@ class Rectifier(wiring.Component):
     def __init__(self, width: int, height: int, grid: RectifyGrid, *, lanes: int = 1,
                  interpolation: str = "bilinear", max_shift_x: int | None = None,
                  max_shift_y: int | None = None):
-        if not isinstance(grid, RectifyGrid):
-            raise ValueError(f"grid must be a RectifyGrid, got {type(grid).__name__}")
-        need_x, need_y = grid.max_shift
-        self.max_shift_y = check_int("max_shift_y", need_y if max_shift_y is None
-                                     else max_shift_y, need_y, MAX_SHIFT_Y)
-        self.max_shift_x = check_int("max_shift_x", need_x if max_shift_x is None
-                                     else max_shift_x, need_x, 4096)
-        # the ring's writes trail the beat by 2 cycles and its reads by 9: a row
-        # must outlast them (width >= Hmax + 10; 2 Hmax + 12 keeps a margin)
-        self.width, self.height = check_geometry(width, height,
-                                                 min_width=2 * self.max_shift_x + 12)
-        if self.width % 2:
-            raise ValueError(f"width must be even (the banks split columns by parity), "
-                             f"got {self.width}")
-        if (grid.width, grid.height) != (self.width, self.height):
-            raise ValueError(f"grid is for {grid.width}x{grid.height} frames, not "
-                             f"{self.width}x{self.height}")
-        self.lanes = check_int("lanes", lanes, 1, 4)
-        if interpolation not in INTERPOLATIONS:
-            raise ValueError(f"interpolation must be one of {', '.join(INTERPOLATIONS)}, "
-                             f"got {interpolation!r}")
+        self.width, self.height, self.lanes, self.max_shift_x, self.max_shift_y = \
+            check_rectifier(width, height, grid, lanes=lanes, interpolation=interpolation,
+                            max_shift_x=max_shift_x, max_shift_y=max_shift_y)
         self.grid, self.interpolation = grid, interpolation
-        if self.width - grid.dx.shape[1] < 6:
-            # a row's map line is written while the row before is output
-            raise ValueError(f"grid_step {grid.grid_step} is too fine for width {self.width}: "
-                             f"the grid's {grid.dx.shape[1]} columns need width - 6 beats")
         self.lag = rectify_timing(self.width, self.max_shift_x, self.max_shift_y).lag
         self.rows = ring_rows(self.max_shift_y)
         self.grid_rows, self.grid_cols = grid.dx.shape
-        limit = int(max(np.abs(grid.dx).max(), np.abs(grid.dy).max(), 1))
-        #: signed bits of a grid value
-        self.grid_bits = bits_for(limit) + 1
-        step_bits = grid.grid_step.bit_length() - 1
-        self.line_bits = self.grid_bits + step_bits + 1
-        #: address bits of a line memory's half (even or odd grid columns)
-        self.line_col_bits = max(1, ((self.grid_cols + 1) // 2 - 1).bit_length())
-        pixel_bits = 8 * self.lanes
-        self.memory_bits = {
-            "row buffers": self.rows * self.width * pixel_bits,
-            "map grid": self.grid_rows * self.grid_cols * 2 * self.grid_bits,
-            "map line": 2 * (2 << self.line_col_bits) * 2 * self.line_bits,
-        }
+        #: signed bits of a grid value, bits of a line value, address bits of a
+        #: line memory's half (even or odd grid columns)
+        self.grid_bits, self.line_bits, self.line_col_bits = _map_bits(grid)
+        self.memory_bits = rectify_memory_bits(self.width, grid, lanes=self.lanes,
+                                               max_shift_y=self.max_shift_y)
         layout_in = data.StructLayout({"first": 1, "pixel": data.ArrayLayout(8, self.lanes)})
         layout_out = data.StructLayout({"first": 1, "real": 1,
                                         "pixel": data.ArrayLayout(8, self.lanes)})

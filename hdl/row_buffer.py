@@ -31,22 +31,31 @@ class RowBuffer(wiring.Component):
         generator chains lines of ``width - window`` behind window rows).
     lanes : int in [1, 256]
     pixel_bits : int in [1, 16]
+    hold_output : bool
+        True (default): the read port is enabled by the beat, so ``o_data``
+        holds its value until the next beat. False: the read port reads every
+        cycle and ``o_data`` is valid only in the cycle after a beat, so the
+        beat reaches no block-RAM enable: on a window generator's wide row
+        buffers the beat's net spanned the RAM columns (routed on an ECP5:
+        10 ns of routing for the census's beat).
 
     Ports
     -----
     beat : In, one advance of every line.
     o_data : Out, ``o_data[i]``: the value lane i received ``length`` beats
-        before the last beat; valid from the cycle after that beat.
+        before the last beat; valid from the cycle after that beat (with
+        ``hold_output=False`` in that cycle only).
     i_data : In, ``i_data[i]``: sampled in the cycle after a beat (the
         cycle ``o_data`` is valid), so a lane may take another lane's output.
     """
 
     cycles = 1  #: o_data is valid one clock cycle after the beat
 
-    def __init__(self, length: int, lanes: int, pixel_bits: int):
+    def __init__(self, length: int, lanes: int, pixel_bits: int, hold_output: bool = True):
         self.length = check_int("length", length, 2, 65536)
         self.lanes = check_int("lanes", lanes, 1, 256)
         self.pixel_bits = check_int("pixel_bits", pixel_bits, *PIXEL_BITS_RANGE)
+        self.hold_output = bool(hold_output)
         self.memory_bits = self.length * self.lanes * self.pixel_bits
         lanes_layout = data.ArrayLayout(pixel_bits, lanes)
         super().__init__({
@@ -66,7 +75,7 @@ class RowBuffer(wiring.Component):
         with m.If(self.beat):
             m.d.sync += ptr.eq(Mux(ptr == n - 1, 0, ptr + 1))
         m.d.comb += [
-            rd.addr.eq(ptr), rd.en.eq(self.beat),
+            rd.addr.eq(ptr), rd.en.eq(self.beat if self.hold_output else 1),
             wr.addr.eq(delay(m, ptr, 1, "waddr")),
             wr.en.eq(delay(m, self.beat, 1, "wen")),
             wr.data.eq(self.i_data.as_value()),

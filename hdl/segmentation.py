@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Hand segmentation: skin colour AND a disparity band (thesis §6.3, eq. 22, Fig. 58).
 
 The skin test (eq. 22) looks at the chroma of the left camera, which leaves the
@@ -19,10 +18,15 @@ from sim.model.segmentation import check_band
 from sim.model.validation import check_byte_range
 
 from ._util import bits_for, check_geometry, check_int, delay
-from .delay_line import BEATS_RANGE, CYCLES_RANGE, BeatDelay
+from .delay_line import BEATS_RANGE, CYCLES_RANGE, BeatDelay, delay_memory_bits
 
-__all__ = ["HandSegmentation"]
+__all__ = ["HandSegmentation", "segmentation_memory_bits"]
 
+
+def segmentation_memory_bits(skin_delay_beats: int) -> int:
+    """The memory of the skin delay line (one bit per beat, when it is long
+    enough to be a memory)."""
+    return delay_memory_bits(bits=1, beats=skin_delay_beats)
 
 
 class HandSegmentation(wiring.Component):
@@ -86,9 +90,7 @@ class HandSegmentation(wiring.Component):
                                            *CYCLES_RANGE)
         self.skin_stages = min(1, self.skin_delay_cycles)
         self.disparity_bits = bits_for(self.max_disparity - 1)
-        self._line = BeatDelay(bits=1, beats=self.skin_delay_beats,
-                               cycles=self.skin_delay_cycles - self.skin_stages)
-        self.memory_bits = self._line.memory_bits
+        self.memory_bits = segmentation_memory_bits(skin_delay_beats=self.skin_delay_beats)
         super().__init__({
             "i_chroma": In(stream.Signature(data.StructLayout(
                 {"first": 1, "cb": 8, "cr": 8}), always_ready=True)),
@@ -106,7 +108,9 @@ class HandSegmentation(wiring.Component):
         m.d.comb += skin.eq((c.cb >= cb_lo) & (c.cb <= cb_hi) & (c.cr >= cr_lo) & (c.cr <= cr_hi))
 
         # Skin bit of chroma beat t - beats, in the cycle of disparity beat t.
-        m.submodules.skin_line = line = self._line
+        m.submodules.skin_line = line = BeatDelay(
+            bits=1, beats=self.skin_delay_beats,
+            cycles=self.skin_delay_cycles - self.skin_stages)
         m.d.comb += [
             line.i_stream.valid.eq(delay(m, self.i_chroma.valid, self.skin_stages, "skin_valid")),
             line.i_stream.payload.data.eq(delay(m, skin, self.skin_stages, "skin_reg")),

@@ -22,7 +22,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import bits_for, check_geometry, check_int, delay
+from ._util import bits_for, check_geometry, check_int, delay, replicate
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -30,8 +30,9 @@ __all__ = ["DisparitySelectors", "selectors_timing"]
 
 
 def selectors_timing(max_disparity: int) -> StageTiming:
-    """No look-ahead; one cycle per level of the best-of tree over D (at least 1)."""
-    return StageTiming(lag=0, cycles=max(1, (max_disparity - 1).bit_length()))
+    """No look-ahead; the input register, then one cycle per level of the
+    best-of tree over D (at least 1)."""
+    return StageTiming(lag=0, cycles=1 + max(1, (max_disparity - 1).bit_length()))
 
 
 class DisparitySelectors(wiring.Component):
@@ -46,7 +47,7 @@ class DisparitySelectors(wiring.Component):
     Ports
     -----
     i_stream : payload ``{first, cost}`` (``cost[d]`` of one left pixel)
-    o_stream : payload ``{first, real, l2r, r2l}``, ``cycles`` = tree depth
+    o_stream : payload ``{first, real, l2r, r2l}``, ``cycles`` = 1 + tree depth
         (at least 1), ``lag`` = 0: ``l2r`` is the L2R disparity of the beat's left
         pixel, ``r2l`` the R2L disparity of the right pixel D - 1 raster
         positions before it.
@@ -75,11 +76,19 @@ class DisparitySelectors(wiring.Component):
                 "first": 1, "real": 1, "l2r": db, "r2l": db}), always_ready=True)),
         })
 
+    #: R2L cells per copy of the beat
+    CELLS_PER_BEAT = 16
+
     def elaborate(self, platform):
         m = Module()
         nd, cb, db = self.max_disparity, self.cost_bits, self.disparity_bits
-        beat = self.i_stream.valid
-        p = self.i_stream.payload
+        # An input register, and the beat once per CELLS_PER_BEAT cells of the
+        # R2L chain (and once for the rest): no single beat net steers the
+        # whole chain.
+        p = Signal(self.i_stream.payload.shape(), name="costs")
+        m.d.sync += p.eq(self.i_stream.payload)
+        beat, *cell_beats = replicate(m, self.i_stream.valid,
+                                      1 + -(-nd // self.CELLS_PER_BEAT), "beat")
         pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # L2R: pipelined tree; a pair's second (larger d) wins only if strictly cheaper.
@@ -106,20 +115,22 @@ class DisparitySelectors(wiring.Component):
         chain_c = [Signal(cb, name=f"r2l_c{k}") for k in range(nd)]
         chain_d = [Signal(db, name=f"r2l_d{k}") for k in range(nd)]
         same_rows = pos.thermometer(nd, "same_row")  # bit k: x >= k
-        with m.If(beat):
+        with m.If(cell_beats[0]):
             m.d.sync += [chain_c[0].eq(p.cost[0]), chain_d[0].eq(0)]
-            for k in range(1, nd):
-                same_row = same_rows[k]
-                take = same_row & (p.cost[k] < chain_c[k - 1])
+        for k in range(1, nd):
+            same_row = same_rows[k]
+            take = same_row & (p.cost[k] < chain_c[k - 1])
+            with m.If(cell_beats[k // self.CELLS_PER_BEAT]):
                 m.d.sync += [chain_c[k].eq(Mux(take, p.cost[k], chain_c[k - 1])),
                              chain_d[k].eq(Mux(take, k, chain_d[k - 1]))]
-        r2l = delay(m, chain_d[nd - 1], self.cycles - 1, "r2l")
+        # (the chain moves one cycle after the input register)
+        r2l = delay(m, chain_d[nd - 1], self.cycles - 2, "r2l")
 
         out = self.o_stream.payload
         m.d.comb += [
-            self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),
-            out.first.eq(delay(m, pos.is_first, self.cycles, "first")),
-            out.real.eq(delay(m, pos.real, self.cycles, "real")),
+            self.o_stream.valid.eq(delay(m, beat, self.cycles - 1, "valid")),
+            out.first.eq(delay(m, pos.is_first, self.cycles - 1, "first")),
+            out.real.eq(delay(m, pos.real, self.cycles - 1, "real")),
             out.l2r.eq(l2r),
             out.r2l.eq(r2l),
         ]

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Sum of Hamming distances for every disparity (thesis eq. 3, Figs. 48-51).
 
 Stream order: census codes of the left and right image at the row entering
@@ -20,22 +19,65 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import check_geometry, check_int, check_odd_window, delay
+from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
 from .column_sum import ColumnSum, column_sum_timing
 from .hamming import HammingDistances, hamming_cycles
 from .raster_position import RasterPosition
 from .stage import StageTiming
 from .window_sum import WindowSum, window_sum_timing
 
-__all__ = ["SumOfHammingDistances", "shd_timing"]
+__all__ = ["SumOfHammingDistances", "shd_timing", "shd_cost_bits", "shd_memory_bits",
+           "shd_stage", "SHD_STAGES"]
+
+#: The parts of :class:`SumOfHammingDistances` by name (:func:`shd_stage`): the
+#: column sums, the window sums and one of its two banks of ``max_disparity``
+#: Hamming distances (alike).
+SHD_STAGES = ("columns", "windows", "hamming")
 
 
 def shd_timing(width: int, census_bits: int, hamming_window: int) -> StageTiming:
-    """The Hamming banks, then the column sums, then the window sums."""
+    """The input register, the Hamming banks, then the column sums, then the
+    window sums."""
     columns = column_sum_timing(width, hamming_window)
     windows = window_sum_timing(hamming_window)
     return StageTiming(lag=columns.lag + windows.lag,
-                       cycles=hamming_cycles(census_bits) + columns.cycles + windows.cycles)
+                       cycles=1 + hamming_cycles(census_bits) + columns.cycles + windows.cycles)
+
+
+def shd_cost_bits(census_bits: int, hamming_window: int) -> int:
+    """Bits of a cost: a window sum of ``Wh`` column sums of ``Wh`` distances
+    (the ``sum_bits`` of its :class:`~hdl.window_sum.WindowSum`)."""
+    return bits_for(hamming_window * hamming_window * census_bits)
+
+
+def shd_memory_bits(width: int, census_bits: int, hamming_window: int,
+                    max_disparity: int) -> dict:
+    """The ``memory_bits`` of its :class:`~hdl.column_sum.ColumnSum` (``width - d``
+    column sums for disparity d) and of its :class:`~hdl.window_sum.WindowSum`
+    (a ring of the power of two >= Wh words of D column sums; none for Wh = 1)."""
+    column_bits = bits_for(hamming_window * census_bits)
+    ring = 1 << (hamming_window - 1).bit_length() if hamming_window >= 3 else 0
+    return {"column sums": sum(width - d for d in range(max_disparity)) * column_bits,
+            "window-sum ring buffer": ring * max_disparity * column_bits}
+
+
+def shd_stage(name: str, width: int, height: int, *, census_bits: int, hamming_window: int,
+              max_disparity: int, no_match_cost: int | None = None):
+    """The part ``name`` (:data:`SHD_STAGES`) of a :class:`SumOfHammingDistances`
+    with these parameters, built alone, as its :meth:`~SumOfHammingDistances.elaborate`
+    builds it."""
+    if no_match_cost is None:
+        no_match_cost = census_bits // 3
+    if name == "columns":
+        return ColumnSum(width, height, hamming_window=hamming_window,
+                         max_disparity=max_disparity, max_term=census_bits,
+                         no_match_cost=no_match_cost)
+    if name == "windows":
+        return WindowSum(width, height, hamming_window=hamming_window,
+                         max_disparity=max_disparity, max_term=hamming_window * census_bits)
+    if name == "hamming":
+        return HammingDistances(census_bits, codes=max_disparity)
+    raise ValueError(f"stage must be one of {', '.join(SHD_STAGES)}, got {name!r}")
 
 
 class SumOfHammingDistances(wiring.Component):
@@ -69,56 +111,66 @@ class SumOfHammingDistances(wiring.Component):
         if no_match_cost is None:
             no_match_cost = census_bits // 3
         self.no_match_cost = check_int("no_match_cost", no_match_cost, 0, census_bits)
-        nd, w, h, wh = self.max_disparity, self.width, self.height, self.hamming_window
-        self._columns = ColumnSum(w, h, hamming_window=wh, max_disparity=nd, max_term=census_bits,
-                                  no_match_cost=self.no_match_cost)
-        self._windows = WindowSum(w, h, hamming_window=wh, max_disparity=nd,
-                                  max_term=wh * census_bits)
-        # one bank of D distances for the entering rows (V1), one for the leaving (V2)
-        self._ham = [HammingDistances(census_bits, codes=nd) for _ in range(2)]
+        nd, w, wh = self.max_disparity, self.width, self.hamming_window
         self.lag, self.cycles = shd_timing(w, census_bits, wh)
-        self.cost_bits = self._windows.sum_bits
-        self.memory_bits = {"column sums": self._columns.memory_bits,
-                            "window-sum ring buffer": self._windows.memory_bits}
+        self.cost_bits = shd_cost_bits(census_bits, hamming_window=wh)
+        self.memory_bits = shd_memory_bits(w, census_bits=census_bits, hamming_window=wh,
+                                           max_disparity=nd)
         cb = census_bits
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({
                 "first": 1, "left": cb, "right": cb, "left2": cb, "right2": cb}),
                 always_ready=True)),
-            "o_stream": Out(stream.Signature(self._windows.o_stream.payload.shape(),
-                                             always_ready=True)),
+            # the window sums' output
+            "o_stream": Out(stream.Signature(data.StructLayout({
+                "first": 1, "real": 1, "cost": data.ArrayLayout(self.cost_bits, nd)}),
+                always_ready=True)),
         })
 
-    @property
-    def stages(self) -> dict:
-        """Its parts by name: the column and window sums and one of the two
-        banks of ``max_disparity`` Hamming distances (alike)."""
-        return {"columns": self._columns, "windows": self._windows, "hamming": self._ham[0]}
+    #: names of its parts (:meth:`stage`)
+    stage_names = SHD_STAGES
+
+    def stage(self, name: str):
+        """The part ``name`` of :data:`SHD_STAGES`, freshly built with the
+        parameters it has here (as :meth:`elaborate` builds its parts); only
+        that part is built."""
+        return shd_stage(name, self.width, self.height, census_bits=self.census_bits,
+                         hamming_window=self.hamming_window, max_disparity=self.max_disparity,
+                         no_match_cost=self.no_match_cost)
+
+    #: code bits of one window per copy of the beat that steers their delay lines
+    BITS_PER_BEAT = 8
 
     def elaborate(self, platform):
         m = Module()
         nd, cb = self.max_disparity, self.census_bits
-        beat = self.i_stream.valid
-        p = self.i_stream.payload
+        # An input register, and the beat once per BITS_PER_BEAT delay lines of a
+        # window (and once for the rest): no single beat net steers all
+        # 2 x (D - 1) x bits registers of the right codes' delay lines.
+        p = Signal(self.i_stream.payload.shape(), name="codes")
+        m.d.sync += p.eq(self.i_stream.payload)
+        groups = -(-cb // self.BITS_PER_BEAT)
+        beat, *line_beats = replicate(m, self.i_stream.valid, 1 + 2 * groups, "beat")
         pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # Delay lines of the right codes in bit-plane order (what HammingDistances
         # takes): bit k of `right{win}_bit{j}` is bit j of the code at raster
         # position x - k - 1. The registers of a line of D codes, held as one
         # word per code bit instead of one per code.
-        m.submodules.columns = cols = self._columns
-        m.submodules.windows = wins = self._windows
-        lh = self._ham[0].cycles
+        m.submodules.columns = cols = self.stage("columns")
+        m.submodules.windows = wins = self.stage("windows")
+        lh = hamming_cycles(cb)
         has_partner = delay(m, pos.thermometer(nd, "partner"), lh, "partner")  # bit d: x >= d
         for win, left, right, field in ((1, p.left, p.right, cols.i_stream.payload.enter),
                                         (2, p.left2, p.right2, cols.i_stream.payload.leave)):
-            ham = self._ham[win - 1]
+            # one bank of D distances for the entering rows (V1), one for the leaving (V2)
+            ham = self.stage("hamming")
             m.submodules[f"ham{win}"] = ham
             for j in range(cb):
                 plane = right[j]
                 if nd > 1:
                     line = Signal(nd - 1, name=f"right{win}_bit{j}")
-                    with m.If(beat):
+                    with m.If(line_beats[(win - 1) * groups + j // self.BITS_PER_BEAT]):
                         m.d.sync += line.eq(Cat(right[j], line[:-1]))
                     plane = Cat(right[j], line)
                 m.d.comb += ham.b[j].eq(plane)

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The stereo matcher of thesis §6.2 (the Fife & Archibald stream architecture,
 Figs. 44-56) plus the 3x3 median of the disparity map: left and right pixel
 streams in, disparity stream out, bit for bit the golden model
@@ -31,15 +30,21 @@ from sim.model.matching import HAMMING_WINDOW_RANGE, MAX_DISPARITY_RANGE
 
 from ._util import (HEIGHT_RANGE, PIXEL_BITS_RANGE, WIDTH_RANGE, bits_for, check_int,
                     check_odd_window, replicate)
-from .census import SparseCensus, census_timing
-from .lrcc import LeftRightCheck, lrcc_timing
-from .median3x3 import Median3x3, median_timing
+from .census import SparseCensus, census_memory_bits, census_timing
+from .lrcc import LeftRightCheck, disparity_bits, lrcc_timing
+from .median3x3 import Median3x3, median_memory_bits, median_timing
 from .selectors import DisparitySelectors, selectors_timing
-from .shd import SumOfHammingDistances, shd_timing
+from .shd import (SHD_STAGES, SumOfHammingDistances, shd_cost_bits, shd_memory_bits, shd_stage,
+                  shd_timing)
 from .stage import StageTiming
 from .streams import connect_remapped
 
-__all__ = ["StereoMatcher", "matcher_timing"]
+__all__ = ["StereoMatcher", "matcher_timing", "matcher_memory_bits", "matcher_stage",
+           "MATCHER_STAGES"]
+
+#: The stages of :class:`StereoMatcher` by name, in dataflow order
+#: (:func:`matcher_stage`); ``median`` only with ``disparity_median``.
+MATCHER_STAGES = ("census_left", "census_right", "shd", "select", "check", "median")
 
 
 def matcher_timing(width: int, census_window: int, hamming_window: int, max_disparity: int,
@@ -53,6 +58,57 @@ def matcher_timing(width: int, census_window: int, hamming_window: int, max_disp
     if disparity_median:
         stages.append(median_timing(width))
     return StageTiming(lag=sum(s.lag for s in stages), cycles=2 + sum(s.cycles for s in stages))
+
+
+def matcher_memory_bits(width: int, census_window: int, hamming_window: int,
+                        max_disparity: int, *, pixel_bits: int = 8,
+                        disparity_median: bool = True) -> dict:
+    """The memory of each stage: both censuses' row buffers, the SHD's parts
+    (:func:`~hdl.shd.shd_memory_bits`) and the disparity median's row buffers."""
+    return {
+        "census row buffers": 2 * census_memory_bits(width, census_window=census_window,
+                                                     pixel_bits=pixel_bits,
+                                                     separation=hamming_window),
+        **shd_memory_bits(width, census_bits=census_bits(census_window),
+                          hamming_window=hamming_window, max_disparity=max_disparity),
+        "median row buffers": (median_memory_bits(width,
+                                                  pixel_bits=disparity_bits(max_disparity))
+                               if disparity_median else 0),
+    }
+
+
+def matcher_stage(name: str, width: int, height: int, *, census_window: int = 7,
+                  hamming_window: int = 29, max_disparity: int = 48, pixel_bits: int = 8,
+                  no_match_cost: int | None = None, disparity_median: bool = True):
+    """The stage ``name`` of a :class:`StereoMatcher` with these parameters (its
+    own), built alone as its :meth:`~StereoMatcher.elaborate` builds it.
+
+    ``name`` is one of :data:`MATCHER_STAGES` (``median`` only with
+    ``disparity_median``) or ``shd.`` and a part of the SHD
+    (:data:`~hdl.shd.SHD_STAGES`). Nothing else is built.
+    """
+    bits = census_bits(census_window)
+    if no_match_cost is None:
+        no_match_cost = bits // 3
+    if name in ("census_left", "census_right"):
+        return SparseCensus(width, height, census_window=census_window, pixel_bits=pixel_bits,
+                            separation=hamming_window)
+    shd = dict(census_bits=bits, hamming_window=hamming_window, max_disparity=max_disparity,
+               no_match_cost=no_match_cost)
+    if name == "shd":
+        return SumOfHammingDistances(width, height, **shd)
+    if name.startswith("shd.") and name[4:] in SHD_STAGES:
+        return shd_stage(name[4:], width, height, **shd)
+    if name == "select":
+        return DisparitySelectors(width, height, max_disparity=max_disparity,
+                                  cost_bits=shd_cost_bits(bits, hamming_window=hamming_window))
+    if name == "check":
+        return LeftRightCheck(width, height, max_disparity=max_disparity)
+    if name == "median" and disparity_median:
+        return Median3x3(width, height, pixel_bits=disparity_bits(max_disparity))
+    names = [n for n in MATCHER_STAGES if n != "median" or disparity_median]
+    raise ValueError(f"stage must be one of {', '.join(names)} or shd.<part> "
+                     f"({', '.join(SHD_STAGES)}), got {name!r}")
 
 
 class StereoMatcher(wiring.Component):
@@ -108,15 +164,9 @@ class StereoMatcher(wiring.Component):
         self.disparity_median = bool(disparity_median)
         self.external_flush = bool(external_flush)
         w, h = self.width, self.height
-
-        self._census = [SparseCensus(w, h, census_window=wc, pixel_bits=pixel_bits, separation=wh)
-                        for _ in range(2)]
-        self._shd = SumOfHammingDistances(w, h, census_bits=self.census_bits, hamming_window=wh,
-                                          max_disparity=nd, no_match_cost=self.no_match_cost)
-        self._select = DisparitySelectors(w, h, max_disparity=nd, cost_bits=self._shd.cost_bits)
-        self._check = LeftRightCheck(w, h, max_disparity=nd)
-        self._median = (Median3x3(w, h, pixel_bits=self._check.disparity_bits)
-                        if disparity_median else None)
+        #: names of its stages (:meth:`stage`), in dataflow order
+        self.stage_names = tuple(name for name in MATCHER_STAGES
+                                 if name != "median" or self.disparity_median)
         timing = matcher_timing(w, wc, wh, nd, disparity_median=self.disparity_median)
         #: flush beats per frame: the total look-ahead of the windows
         self.flush = self.lag = timing.lag
@@ -126,12 +176,10 @@ class StereoMatcher(wiring.Component):
         self.latency = self.flush + self.cycles
         #: clock cycles per frame, input without gaps (back-to-back frames)
         self.frame_cycles = w * h + self.flush
-        self.disparity_bits = self._check.disparity_bits
-        self.memory_bits = {
-            "census row buffers": 2 * self._census[0].memory_bits,
-            **self._shd.memory_bits,
-            "median row buffers": self._median.memory_bits if self._median else 0,
-        }
+        self.disparity_bits = disparity_bits(nd)
+        self.memory_bits = matcher_memory_bits(w, census_window=wc, hamming_window=wh,
+                                               max_disparity=nd, pixel_bits=self.pixel_bits,
+                                               disparity_median=self.disparity_median)
         marks_in = {"first": 1} if self.external_flush else {}
         marks_out = {"first": 1, "real": 1} if self.external_flush else {}
         super().__init__({
@@ -163,15 +211,15 @@ class StereoMatcher(wiring.Component):
         self._stages(m, beats, first, left, right)
         return m
 
-    @property
-    def stages(self) -> dict:
-        """The stage components by name, in dataflow order (the SHD's own parts
-        in ``shd.stages``)."""
-        stages = {"census_left": self._census[0], "census_right": self._census[1],
-                  "shd": self._shd, "select": self._select, "check": self._check}
-        if self._median is not None:
-            stages["median"] = self._median
-        return stages
+    def stage(self, name: str):
+        """The stage ``name`` (of :attr:`stage_names`, or ``shd.`` and a part of
+        the SHD), freshly built with the parameters it has here, as
+        :meth:`elaborate` builds its stages; only that stage is built."""
+        return matcher_stage(name, self.width, self.height, census_window=self.census_window,
+                             hamming_window=self.hamming_window,
+                             max_disparity=self.max_disparity, pixel_bits=self.pixel_bits,
+                             no_match_cost=self.no_match_cost,
+                             disparity_median=self.disparity_median)
 
     def _count_and_flush(self, m, beat_next, first, left, right):
         """Self-contained mode: count the frame's pixels, then run ``flush`` beats."""
@@ -202,24 +250,24 @@ class StereoMatcher(wiring.Component):
 
     def _stages(self, m, beats, first, left, right):
 
-        cl, cr = self._census
+        cl, cr = self.stage("census_left"), self.stage("census_right")
         m.submodules.census_left = cl
         m.submodules.census_right = cr
         for c, px, beat in ((cl, left, beats[0]), (cr, right, beats[1])):
             m.d.comb += [c.i_stream.valid.eq(beat), c.i_stream.payload.first.eq(first),
                          c.i_stream.payload.pixel.eq(px)]
-        m.submodules.shd = shd = self._shd
+        m.submodules.shd = shd = self.stage("shd")
         connect_remapped(m, cl.o_stream, shd.i_stream,
                          left=cl.o_stream.payload.code, right=cr.o_stream.payload.code,
                          left2=cl.o_stream.payload.code2, right2=cr.o_stream.payload.code2)
-        m.submodules.select = sel = self._select
+        m.submodules.select = sel = self.stage("select")
         connect_remapped(m, shd.o_stream, sel.i_stream)
-        m.submodules.check = chk = self._check
+        m.submodules.check = chk = self.stage("check")
         m.d.comb += chk.threshold.eq(self.threshold)
         connect_remapped(m, sel.o_stream, chk.i_stream)
         last, value = chk.o_stream, chk.o_stream.payload.disparity
-        if self._median is not None:
-            m.submodules.median = med = self._median
+        if self.disparity_median:
+            m.submodules.median = med = self.stage("median")
             connect_remapped(m, chk.o_stream, med.i_stream, pixel=chk.o_stream.payload.disparity)
             last, value = med.o_stream, med.o_stream.payload.pixel
         # An output register: the stage behind (segmentation) sits far from the

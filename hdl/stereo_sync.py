@@ -53,7 +53,7 @@ from amaranth.lib.wiring import In, Out
 from ._util import check_geometry, check_int
 from .camera_capture import capture_word_layout
 
-__all__ = ["StereoSynchronizer", "pixel_pair_layout"]
+__all__ = ["StereoSynchronizer", "pixel_pair_layout", "check_fifo"]
 
 FIFO_DEPTH_RANGE = (16, 65536)
 FLUSH_MAX = 1 << 20
@@ -63,6 +63,16 @@ def pixel_pair_layout() -> data.StructLayout:
     """Payload of the synchroniser's output: the left and right words of one pixel."""
     word = data.StructLayout({"luma": 8, "chroma": 8})
     return data.StructLayout({"first": 1, "left": word, "right": word})
+
+
+def check_fifo(fifo_depth: int, threshold: int, pixels: int) -> tuple[int, int]:
+    """``fifo_depth`` and ``threshold`` checked as :class:`StereoSynchronizer`
+    checks them for frames of ``pixels`` pixels (without building it)."""
+    fifo_depth = check_int("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
+    if fifo_depth & (fifo_depth - 1):
+        raise ValueError(f"fifo_depth must be a power of two in {list(FIFO_DEPTH_RANGE)}, "
+                         f"got {fifo_depth}")
+    return fifo_depth, check_int("threshold", threshold, 1, min(fifo_depth, pixels))
 
 
 def _check_domain(name: str, value) -> str:
@@ -123,12 +133,8 @@ class StereoSynchronizer(wiring.Component):
         if self.width % 2:
             raise ValueError(f"width must be even (4:2:2 pixel pairs) in [8, 4096], "
                              f"got {self.width}")
-        self.fifo_depth = check_int("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
-        if self.fifo_depth & (self.fifo_depth - 1):
-            raise ValueError(f"fifo_depth must be a power of two in {list(FIFO_DEPTH_RANGE)}, "
-                             f"got {self.fifo_depth}")
-        pixels = self.width * self.height
-        self.threshold = check_int("threshold", threshold, 1, min(self.fifo_depth, pixels))
+        self.fifo_depth, self.threshold = check_fifo(fifo_depth, threshold,
+                                                     self.width * self.height)
         if max_skew is None:
             max_skew = self.fifo_depth // 2
         self.max_skew = check_int("max_skew", max_skew, 1, self.fifo_depth)

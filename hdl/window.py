@@ -19,10 +19,11 @@ from amaranth.hdl import Cat, Module, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window, delay
+from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window, delay, \
+    replicate
 from .raster_position import RasterPosition
 from .row_buffer import RowBuffer
-from .stage import StageTiming
+from .stage import StageTiming, window_memory_bits
 
 __all__ = ["WindowGenerator", "window_timing"]
 
@@ -67,9 +68,8 @@ class WindowGenerator(wiring.Component):
         self.buffer_rows = window - 1 + separation
         self.used_rows = sorted(set(range(window)) | set(range(separation,
                                                                 separation + window)))
-        short = sum(1 for k in range(1, self.buffer_rows + 1) if k - 1 in self.used_rows)
-        self.memory_bits = (short * (self.width - window)
-                            + (self.buffer_rows - short) * self.width) * self.pixel_bits
+        self.memory_bits = window_memory_bits(self.width, window=window,
+                                              pixel_bits=self.pixel_bits, separation=separation)
         tap = data.ArrayLayout(data.ArrayLayout(pixel_bits, window), window)
         fields = {"first": 1, "real": 1, "v1": tap, "rows1": window, "cols": window}
         if separation:
@@ -79,6 +79,9 @@ class WindowGenerator(wiring.Component):
                 {"first": 1, "pixel": pixel_bits}), always_ready=True)),
             "o_stream": Out(stream.Signature(data.StructLayout(fields), always_ready=True)),
         })
+
+    #: window shift-register bits per copy of the beat that moves them
+    SHIFT_BITS_PER_BEAT = 256
 
     def elaborate(self, platform):
         m = Module()
@@ -104,13 +107,17 @@ class WindowGenerator(wiring.Component):
         shift = {k: [shift_row[k][s * pb:(s + 1) * pb] for s in range(win)] for k in used}
         short = [k for k in range(1, self.buffer_rows + 1) if k - 1 in used]
         long_ = [k for k in range(1, self.buffer_rows + 1) if k - 1 not in used]
-        col_valid = delay(m, beat, 1, "col_valid")
+        # the cycle after the beat, once per group of window rows (a single
+        # copy's net spans every shift register of a census window)
+        rows_per_copy = max(1, self.SHIFT_BITS_PER_BEAT // (win * pb))
+        col_valid = replicate(m, beat, -(-len(used) // rows_per_copy), "col_valid")
         column = {0: delay(m, self.i_stream.payload.pixel, 1, "col")}
         lines = []
         for name, rows, length in (("short", short, w - win), ("long", long_, w)):
             if not rows:
                 continue
-            rb = RowBuffer(length=length, lanes=len(rows), pixel_bits=pb)
+            # read every cycle: the lines are sampled only in the cycle after a beat
+            rb = RowBuffer(length=length, lanes=len(rows), pixel_bits=pb, hold_output=False)
             m.submodules[f"rows_{name}"] = rb
             m.d.comb += rb.beat.eq(beat)
             for lane, k in enumerate(rows):
@@ -122,8 +129,8 @@ class WindowGenerator(wiring.Component):
                 # window register (before this beat's shift) or its delay line
                 src = shift[k - 1][win - 1] if k - 1 in used else column[k - 1]
                 m.d.comb += rb.i_data[lane].eq(src)
-        with m.If(col_valid):
-            for k in used:
+        for n, k in enumerate(used):
+            with m.If(col_valid[n // rows_per_copy]):
                 m.d.sync += shift_row[k].eq(Cat(column[k], shift_row[k][:-pb]))
 
         out = self.o_stream.payload

@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The DE1-SoC top level: pins, PLL and resets around the Platform Designer
 system ``soc_system`` (HPS + :class:`soc.core.StereogestCore`).
 
@@ -41,6 +40,20 @@ PLL_REFERENCE_HZ = CONFIG_HZ
 #: Clock domain of each PLL output, in output order (the constraints name the
 #: PLL's clocks by this index).
 PLL_OUTPUTS = ("sync", "vga", "xclk")
+_SIDES = ("left", "right")
+#: Core conduit ports the board drives (``sources`` of :meth:`BoardTop.elaborate`)
+#: and reads (``sinks``), by the core port's name: checked when a top is made,
+#: before anything is built for its pins.
+_SOURCES = frozenset([
+    *(f"{name}_{kind}" for name in ("cam_left", "cam_right", "config", "vga")
+      for kind in ("clk", "rst")),
+    *(f"{side}__{sig}" for side in _SIDES for sig in ("vsync", "href", "data")),
+    *(f"{side}_i2c__{sig}_i" for side in _SIDES for sig in ("scl", "sda")),
+    "uart_rx", "capture", "stage_select", "configure", "pause"])
+_SINKS = frozenset([
+    *(f"{side}_i2c__{sig}_oe" for side in _SIDES for sig in ("scl", "sda")),
+    "uart_tx", "leds",
+    *(f"vga__{name}" for name in ("r", "g", "b", "hsync", "vsync", "blank_n"))])
 
 
 def _mhz(hz: float) -> str:
@@ -64,8 +77,8 @@ class BoardTop(Elaboratable):
     Raises
     ------
     ValueError
-        If a frequency is out of range, or (at elaboration) the core has a
-        conduit port this board does not know or with an unexpected direction.
+        If a frequency is out of range, or the core has a conduit port this
+        board does not know or with an unexpected direction.
     """
 
     def __init__(self, core_ports, *, sync_hz: float = SYNC_HZ, vga_hz: float = VGA_HZ,
@@ -76,6 +89,15 @@ class BoardTop(Elaboratable):
         self.vga_hz = check_number("vga_hz", vga_hz, 10e6, 100e6, unit="Hz")
         # OV5642 XCLK range
         self.xclk_hz = check_number("xclk_hz", xclk_hz, 6e6, 27e6, unit="Hz")
+        for core_port, (_, direction, _) in conduit_map(self.core_ports).items():
+            if direction == "input":
+                if core_port not in _SOURCES:
+                    raise ValueError(f"core input {core_port!r} has no board connection")
+            elif direction == "output":
+                if core_port not in _SINKS:
+                    raise ValueError(f"core output {core_port!r} has no board connection")
+            else:
+                raise ValueError(f"core port {core_port!r}: inout ports are not supported")
 
     def elaborate(self, platform):
         m = Module()
@@ -211,19 +233,14 @@ class BoardTop(Elaboratable):
         prefix = {"input": "i", "output": "o", "inout": "io"}
         for role, (sys_port, direction, _) in zip(HPS_IO_PINS, HPS_IO_PORTS):
             ports[f"{prefix[direction]}_{sys_port}"] = getattr(hps_io, role).io
+        # (every conduit has its source or sink: checked in __init__)
         for core_port, (sys_port, direction, width) in conduit_map(self.core_ports).items():
             wire = Signal(width, name=f"core_{core_port}")
             if direction == "input":
-                if core_port not in sources:
-                    raise ValueError(f"core input {core_port!r} has no board connection")
                 m.d.comb += wire.eq(sources[core_port])
                 ports[f"i_{sys_port}"] = wire
-            elif direction == "output":
-                if core_port not in sinks:
-                    raise ValueError(f"core output {core_port!r} has no board connection")
+            else:
                 m.d.comb += sinks[core_port].eq(wire)
                 ports[f"o_{sys_port}"] = wire
-            else:
-                raise ValueError(f"core port {core_port!r}: inout ports are not supported")
         m.submodules.soc = Instance(SYSTEM_NAME, **ports)
         return m

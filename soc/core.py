@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The whole FPGA side of the DE1-SoC system without pins or PLL (thesis
 chapters 5-8): what the board top wraps and what the end-to-end demo simulates.
 
@@ -37,11 +36,12 @@ from amaranth.lib.wiring import In, Out
 from hdl._util import check_geometry
 from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
 from sim.model.pipeline import PipelineParams
-from sim.model.validation import check_number
+from sim.model.validation import check_int, check_number
+from sim.model.vga import SCALE_RANGE
 
 from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
-from .frame_buffer import NO_INIT_ATTR, FrameBuffer
+from .frame_buffer import NO_INIT_ATTR, VGA_SCALE, FrameBuffer
 from .hps_interface import FIFO_BASE, UART_BASE
 from .ov5642_config import Ov5642Config
 from .uart import UartSlave
@@ -49,14 +49,14 @@ from .vga_timing import VGA_640x480_60, VgaMode
 
 __all__ = ["StereogestCore", "CameraPins", "I2cPins", "CORE_NAME", "CLOCK_DOMAINS",
            "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "core_ports", "emit_core_verilog",
-           "strip_zero_init",
+           "strip_zero_init", "VGA_SCALE",
            "VIDEO_STAGES"]
 
 #: Verilog module name of the core (the ``_hw.tcl`` component wraps it).
 CORE_NAME = "stereogest_core"
 #: Clock domains besides ``sync`` (ports ``<name>_clk`` and ``<name>_rst``).
 CLOCK_DOMAINS = ("cam_left", "cam_right", "config", "vga")
-#: Bits per pixel of the VGA frame buffer (150 M10K blocks at 640 x 480).
+#: Bits per pixel of the VGA frame buffer.
 FRAME_BUFFER_BITS = 4
 
 #: Camera pins as the camera drives them (the core takes ``In(CameraPins)``).
@@ -94,6 +94,9 @@ class StereogestCore(wiring.Component):
         Robot link (RN-42), 115200 8N1.
     frame_buffer_bits : int
         Bits kept per pixel by the VGA frame buffer.
+    vga_scale : int in [1, 2]
+        Resolution of the VGA frame buffer: 1 full, 2 half in x and y
+        (:data:`soc.frame_buffer.VGA_SCALE`, the default: it saves M10K blocks).
     config_table : sequence of (address, value, delay_ms), optional
         OV5642 register writes (default: the vendored 988-row table).
 
@@ -115,12 +118,14 @@ class StereogestCore(wiring.Component):
                  config_freq: float = CONFIG_HZ, vga_mode: VgaMode = VGA_640x480_60,
                  fifo_depth: int = 512, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
+                 vga_scale: int = VGA_SCALE,
                  config_table=None):
         width, height = check_geometry(width, height)
         self.sync_freq = check_number("sync_freq", sync_freq, 1e6, 500e6, unit="Hz")
         self.config_freq = check_number("config_freq", config_freq, 1e6, 500e6, unit="Hz")
         if not isinstance(vga_mode, VgaMode):
             raise ValueError(f"vga_mode must be a VgaMode, got {type(vga_mode).__name__}")
+        check_int("vga_scale", vga_scale, *SCALE_RANGE)
         self.width, self.height, self.params = width, height, params
         self.vga_mode = vga_mode
         self.pipeline = GesturePipeline(width, height, params, rectification=rectification,
@@ -131,7 +136,8 @@ class StereogestCore(wiring.Component):
         self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
         self.config = [Ov5642Config(clk_freq=self.config_freq, table=config_table)
                        for _ in range(2)]
-        self.frame_buffer = FrameBuffer(width, height, vga_mode, pixel_bits=frame_buffer_bits)
+        self.frame_buffer = FrameBuffer(width, height, vga_mode, pixel_bits=frame_buffer_bits,
+                                        scale=vga_scale)
         domain_ports = {}
         for name in CLOCK_DOMAINS:
             domain_ports[f"{name}_clk"] = In(1)

@@ -13,10 +13,11 @@ from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_int
+from sim.model.vga import SCALE_RANGE, stored_size
 
 from .vga_timing import VGA_640x480_60, VgaMode, VgaTiming
 
-__all__ = ["FrameBuffer", "VgaOutputSignature", "READ_LATENCY", "NO_INIT_ATTR"]
+__all__ = ["FrameBuffer", "VgaOutputSignature", "READ_LATENCY", "NO_INIT_ATTR", "VGA_SCALE"]
 
 #: Pixel clocks from the raster counters to the registered VGA outputs:
 #: one for the block RAM read, one for the output registers.
@@ -24,6 +25,10 @@ READ_LATENCY = 2
 #: Attribute of a memory whose contents before the first write do not matter:
 #: :func:`soc.core.emit_core_verilog` writes no initialiser for it.
 NO_INIT_ATTR = "stereogest_no_init"
+#: Default ``scale`` of :class:`FrameBuffer`: half resolution, a quarter of the
+#: block RAM, as the M10K blocks are the whole core's tightest resource (the
+#: figures: soc/README.md, Resources) and a debug view needs no more.
+VGA_SCALE = 2
 
 
 class VgaOutputSignature(wiring.Signature):
@@ -65,21 +70,23 @@ class FrameBuffer(wiring.Component):
 
     Each incoming pixel's top ``pixel_bits`` are stored at its raster address
     (``first`` restarts at address 0; pixels past ``width * height`` and before
-    the first ``first`` are dropped). The VGA side scans the memory in step
-    with a :class:`~soc.vga_timing.VgaTiming` and widens each stored value to
-    8 bits by bit replication (4 bits ``v``: ``v << 4 | v``), the golden model
-    :func:`sim.model.vga.vga_frame`. A frame smaller than the visible area sits
-    at the top-left, the rest is black.
+    the first ``first`` are dropped); at ``scale`` 2 only the pixels at even x
+    and even y are stored. The VGA side scans the memory in step with a
+    :class:`~soc.vga_timing.VgaTiming`, shows each stored pixel as a ``scale`` x
+    ``scale`` block (the picture keeps its width x height) and widens each
+    stored value to 8 bits by bit replication (4 bits ``v``: ``v << 4 | v``),
+    the golden model :func:`sim.model.vga.vga_frame`. A frame smaller than the
+    visible area sits at the top-left, the rest is black.
 
     Single buffer: the VGA side may show parts of two successive frames
     (tearing) when the pipeline writes while it reads; acceptable for a debug
     view, and it halves the memory.
 
-    Memory: ``width * height * pixel_bits`` bits in one
-    :class:`amaranth.lib.memory.Memory`, written in ``sync`` and read in
-    ``vga`` (a true dual-clock block RAM). At the board size, 640 x 480 x 4 =
-    1,228,800 bits = 150 M10K blocks in 2K x 4 mode (of the Cyclone V
-    5CSEMA5's 397).
+    Memory: ``ceil(width / scale) * ceil(height / scale) * pixel_bits`` bits
+    in one :class:`amaranth.lib.memory.Memory`, written in ``sync`` and read in
+    ``vga`` (a true dual-clock block RAM). At the board size, 4 bits: 320 x 240
+    x 4 = 307,200 bits at half resolution, 640 x 480 x 4 = 1,228,800 bits at
+    full (their M10K blocks: soc/README.md, Resources).
 
     Parameters
     ----------
@@ -90,6 +97,10 @@ class FrameBuffer(wiring.Component):
         VGA timing (default 640x480 at 60 Hz).
     pixel_bits : int in [1, 8]
         Bits stored per pixel (top bits of the 8-bit input).
+    scale : int in [1, 2]
+        1: full resolution; 2 (default, :data:`VGA_SCALE`): half resolution in
+        x and y, a quarter of the memory, because the M10K blocks are what the
+        whole core runs short of.
 
     Ports
     -----
@@ -106,14 +117,18 @@ class FrameBuffer(wiring.Component):
     """
 
     def __init__(self, width: int = 640, height: int = 480,
-                 mode: VgaMode = VGA_640x480_60, pixel_bits: int = 4):
+                 mode: VgaMode = VGA_640x480_60, pixel_bits: int = 4, *,
+                 scale: int = VGA_SCALE):
         if not isinstance(mode, VgaMode):
             raise ValueError(f"mode must be a VgaMode, got {mode!r}")
         self.mode = mode
         self.width = check_int("width", width, 1, mode.h_active)
         self.height = check_int("height", height, 1, mode.v_active)
         self.pixel_bits = check_int("pixel_bits", pixel_bits, 1, 8)
-        self.depth = self.width * self.height
+        self.scale = check_int("scale", scale, *SCALE_RANGE)
+        self.stored_width, self.stored_height = stored_size(self.width, self.height,
+                                                            self.scale)
+        self.depth = self.stored_width * self.stored_height
         self.memory_bits = self.depth * self.pixel_bits
         self.latency = READ_LATENCY
         super().__init__({
@@ -126,7 +141,7 @@ class FrameBuffer(wiring.Component):
         m = Module()
         pb, depth = self.pixel_bits, self.depth
         # what is shown before the first frame is written does not matter (the
-        # simulators start it at zero); the Verilog skips the 307,200-word initialiser
+        # simulators start it at zero); the Verilog skips the all-zero initialiser
         m.submodules.memory = mem = memory.Memory(shape=unsigned(pb), depth=depth, init=[],
                                                   attrs={NO_INIT_ATTR: "1"})
         write = mem.write_port()
@@ -139,12 +154,25 @@ class FrameBuffer(wiring.Component):
         payload = self.i_stream.payload
         addr = Mux(payload.first, 0, write_addr)
         in_frame = payload.first | (write_addr < depth)
+        store = in_frame
+        if self.scale == 2:
+            # the incoming raster position; only even columns of even rows are kept
+            column = Signal(range(max(2, self.width)))
+            odd_row = Signal()
+            here = Mux(payload.first, 0, column)
+            here_odd_row = Mux(payload.first, 0, odd_row)
+            store = in_frame & ~here[0] & ~here_odd_row
+            with m.If(beat):
+                with m.If(here == self.width - 1):
+                    m.d.sync += [column.eq(0), odd_row.eq(~here_odd_row)]
+                with m.Else():
+                    m.d.sync += [column.eq(here + 1), odd_row.eq(here_odd_row)]
         m.d.comb += [
             write.addr.eq(addr),
             write.data.eq(payload.pixel[8 - pb:]),
-            write.en.eq(beat & in_frame),
+            write.en.eq(beat & store),
         ]
-        with m.If(beat & in_frame):
+        with m.If(beat & store):
             m.d.sync += write_addr.eq(addr + 1)
 
         # --- read side (pixel clock) ---------------------------------------------------
@@ -154,10 +182,26 @@ class FrameBuffer(wiring.Component):
         # image (there is at least the vertical sync) rewind it for the next frame.
         read_addr = Signal(range(depth + 1))
         in_image = (timing.x < self.width) & (timing.y < self.height)
-        with m.If(timing.y >= self.height):
-            m.d.vga += read_addr.eq(0)
-        with m.Elif(in_image):
-            m.d.vga += read_addr.eq(read_addr + 1)
+        if self.scale == 1:
+            with m.If(timing.y >= self.height):
+                m.d.vga += read_addr.eq(0)
+            with m.Elif(in_image):
+                m.d.vga += read_addr.eq(read_addr + 1)
+        else:
+            # Each stored row is read on two lines, each word on two pixels:
+            # the address advances after odd x, and at the end of a line goes
+            # back to the row's start (after even y) or on to the next row.
+            row_start = Signal(range(depth + 1))
+            with m.If(timing.y >= self.height):
+                m.d.vga += [read_addr.eq(0), row_start.eq(0)]
+            with m.Elif(in_image & (timing.x == self.width - 1)):
+                with m.If(timing.y[0]):
+                    m.d.vga += [read_addr.eq(row_start + self.stored_width),
+                                row_start.eq(row_start + self.stored_width)]
+                with m.Else():
+                    m.d.vga += read_addr.eq(row_start)
+            with m.Elif(in_image & timing.x[0]):
+                m.d.vga += read_addr.eq(read_addr + 1)
         m.d.comb += read.addr.eq(read_addr)
 
         # Stage 1: the memory reads; the decoded position waits beside it.

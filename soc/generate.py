@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """Write the Quartus/Platform Designer bundle of the recogniser for the DE1-SoC
 (``stereogest generate --out DIR``).
 
@@ -106,7 +105,8 @@ def check_out_dir(out_dir) -> Path:
 
 def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
              vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, rectification=None,
-             hand_tracking: bool = False, progress=None) -> BundleInfo:
+             hand_tracking: bool = False, vga_scale: int | None = None,
+             progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
 
     Parameters
@@ -124,6 +124,9 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     hand_tracking : bool
         The centroid's hand tracking (:func:`sim.model.pipeline.hand_tracking_for`
         the width) on top of the thesis parameters.
+    vga_scale : int in [1, 2], optional
+        Resolution of the VGA debug view's frame buffer (None: the core's
+        default, :data:`soc.frame_buffer.VGA_SCALE`).
     progress : callable, optional
         Called with one-line progress messages.
 
@@ -143,6 +146,12 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     sync_hz = check_number("sync_hz", sync_hz, 10e6, 200e6, unit="Hz")
     vga_hz = check_number("vga_hz", vga_hz, 10e6, 100e6, unit="Hz")
     xclk_hz = check_number("xclk_hz", xclk_hz, 6e6, 27e6, unit="Hz")
+    from sim.model.validation import check_int
+    from sim.model.vga import SCALE_RANGE
+
+    from .frame_buffer import VGA_SCALE
+    vga_scale = check_int("vga_scale", VGA_SCALE if vga_scale is None else vga_scale,
+                          *SCALE_RANGE)
 
     from boards.de1_soc import StereogestDE1SoCPlatform
 
@@ -158,8 +167,13 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     if hand_tracking:           # after the checks: the width's range is the pipeline's
         params.validate(width, height)
         params = dataclasses.replace(params, **hand_tracking_for(width))
+    # the core's checks of the frame and the pipeline's first: a core is built to
+    # be elaborated
+    from hdl._util import check_geometry
+    from hdl.gesture_pipeline import pipeline_timing
+    pipeline_timing(*check_geometry(width, height), params, rectification)
     core = StereogestCore(width, height, params, rectification=rectification,
-                          sync_freq=sync_hz, vga_mode=vga_mode)
+                          sync_freq=sync_hz, vga_mode=vga_mode, vga_scale=vga_scale)
     say(f"elaborating the core ({width}x{height}) ...")
     core_v = emit_core_verilog(core)
     ports = core_ports(core)
@@ -187,11 +201,12 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     files[BUILD_SCRIPT] = _build_script()
     refresh = vga_hz / (vga_mode.h_total * vga_mode.v_total)
     files["README.md"] = _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports,
-                                 bases)
+                                 bases, vga_scale)
     files[MARKER] = json.dumps({
         "generator": "stereogest generate", "width": width, "height": height,
         "sync_hz": sync_hz, "vga_hz": vga_hz, "xclk_hz": xclk_hz,
         "hand_tracking": {"track_gate": params.track_gate, "hand_rows": params.hand_rows},
+        "vga_scale": vga_scale,
         "device": DEVICE, "files": sorted([*files, MARKER]),
     }, indent=2) + "\n"
 
@@ -521,7 +536,7 @@ echo "done: {PROJECT}.sof and {PROJECT}.rbf"
 """
 
 
-def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases) -> str:
+def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases, vga_scale) -> str:
     conduits = [i for i in core_interfaces(ports) if i.kind == "conduit"]
     slaves = [i for i in core_interfaces(ports) if i.kind == "avalon"]
     slave_rows = "\n".join(
@@ -529,6 +544,8 @@ def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases) -> s
         f"{4 << dict((r, w) for _, r, _, w in s.ports)['address']:#x} |" for s in slaves)
     conduit_list = ", ".join(f"`core_{c.name}`" for c in conduits)
     pins = f"{SYSTEM_NAME}/synthesis/submodules/hps_sdram_p0_pin_assignments.tcl"
+    view = "full resolution" if vga_scale == 1 else \
+        "half resolution, each stored pixel shown as a 2x2 block"
     return f"""# stereogest: Quartus bundle for the DE1-SoC
 
 Written by `stereogest generate` ({width}x{height} pipeline). Device {DEVICE}
@@ -600,9 +617,9 @@ DDR3): build the preloader from the handoff qsys-generate writes
 
 KEY[0] reset, KEY[1] reconfigure the cameras, KEY[2] (held) pause, SW[0]
 capture, SW[9:7] VGA stage (0 right, 1 left, 2 disparity, 3 skin, 4 band,
-5 opening); LEDR[0]/[1] cameras configured, [2] configuration error, [3]
-FIFO-FULL, [4] gesture detected, [5] GO, [6] synchroniser fault, [9:7]
-heartbeat. Camera header pins: `boards/README.md` in the repository.
+5 opening; {view}); LEDR[0]/[1] cameras configured, [2] configuration
+error, [3] FIFO-FULL, [4] gesture detected, [5] GO, [6] synchroniser fault,
+[9:7] heartbeat. Camera header pins: `boards/README.md` in the repository.
 
 ## Platform Designer system
 

@@ -225,6 +225,10 @@ CASES = [
     case("demo", "-o", f"{OUT}/d", "--model", f"{IN}/nope.json", match="nope.json"),
     case("demo", "-o", f"{OUT}/d", "--model", f"{IN}/text.json", match="text.json"),
     case("demo", "-o", f"{OUT}/d", "--clip", f"{IN}/nope", match="not a clip directory"),
+    *int_option_cases("demo", ["-o", f"{OUT}/d", "--backend", "model"], ["--vga-scale"]),
+    *[case("demo", "-o", f"{OUT}/d", "--backend", backend, "--vga-scale", value,
+           match=f"--vga-scale must be in [1, 2], got {value}")
+      for backend, value in [("model", "0"), ("verilator", "3")]],
     case("demo", "-o", f"{IN}/afile", "--backend", "model", "--width", "96", "--height", "64",
          match="afile"),
     # ------------------------------------------------------------ live
@@ -290,7 +294,10 @@ CASES = [
     case("classify", str(MODEL), f"{IN}/data.npz", "--resample", "abc", match="--resample"),
     case("classify", str(MODEL), f"{IN}/data.npz", "--plot", f"{OUT}/c.txt", match="--plot"),
     # ------------------------------------------------------------ resources, timing, generate
-    *int_option_cases("resources", [], ["--width", "--height"]),
+    *int_option_cases("resources", [], ["--width", "--height", "--vga-scale"]),
+    *[case("resources", "--vga-scale", value, match=f"--vga-scale must be in [1, 2], got {value}")
+      for value in ("0", "3", "-1")],
+    case("resources", "--hand-tracking", "--width", "8", match="--width must be in [48, 4096]"),
     *int_option_cases("timing", [], ["--width", "--height", "--census-window",
                                      "--hamming-window", "--max-disparity", "--opening-size",
                                      "--seed"]),
@@ -304,6 +311,9 @@ CASES = [
     case("generate", "-o", f"{OUT}/b", "--height", "0", match="--height"),
     case("generate", "-o", f"{OUT}/b", "--hand-tracking", "--width", "8",
          match="--width must be in [48, 4096]"),
+    *int_option_cases("generate", ["-o", f"{OUT}/b"], ["--vga-scale"]),
+    case("generate", "-o", f"{OUT}/b", "--vga-scale", "4",
+         match="--vga-scale must be in [1, 2], got 4"),
     case("generate", "-o", f"{IN}/afile", match="afile"),
     case("generate", match="-o/--output"),
     # ------------------------------------------------------------ chessboards, calibrate
@@ -378,6 +388,7 @@ def _output_cases():
         (["timing", "--block", "median3x3", "--keep"], "--keep", []),
         (["calibrate", f"{IN}/adir", "-o"], "--output", []),
         (["chessboards", "--count", "1", "-o"], "--output", []),
+        (["chessboards", "--count", "1", "-o", f"{OUT}/cb", "--truth"], "--truth", []),
     ]
     for before, option, suffix in outputs:
         for where, why in ((f"{RO}/x", "Read-only file system"), (f"{DENIED}/x", "Permission"),

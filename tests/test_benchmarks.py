@@ -120,17 +120,21 @@ def test_demo_accuracy_refuses_an_unreachable_scheduler():
                                             ("bench_pipeline_hw", "blocks")])
 def test_hardware_benchmarks_build_their_blocks(script, blocks):
     """The blocks the resource benchmarks synthesize still construct and
-    elaborate (the benchmarks themselves take tens of minutes)."""
+    elaborate (the benchmarks themselves take tens of minutes); one is
+    converted to RTLIL."""
     import warnings
 
     from amaranth.back import rtlil
+    from amaranth.hdl import Fragment
     bench = load_script(script)
     found = bench.modules(bench.THESIS) if blocks == "modules" else bench.blocks()
     assert len(found) >= 8
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        name, dut = min(found, key=lambda item: item[0] != "hamming")
-        assert "module" in rtlil.convert(dut, name=name)
+        name, build = min(found, key=lambda item: item[0] != "hamming")
+        assert "module" in rtlil.convert(build(), name=name)
+        for name, build in found:
+            Fragment.get(build(), None)
 
 
 def test_bench_live_small_prints_json(capsys):

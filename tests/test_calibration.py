@@ -129,6 +129,22 @@ def test_cli_chessboards_calibrate_and_stereo(tmp_path, capsys):
                      "--max-disparity", "64", "--hamming-window", "9"]) == 0
 
 
+def test_chessboards_writes_the_rigs_true_calibration(tmp_path, capsys):
+    """--truth: the rig's own calibration, the maps every figure of the default rig uses."""
+    from sim.calibration import StereoRig, rig_calibration, stereo_rectification
+    truth = tmp_path / "truth.json"
+    assert cli.main(["chessboards", "-o", str(tmp_path / "b"), "--count", "1",
+                     "--truth", str(truth), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["truth"] == str(truth)
+    ours = stereo_rectification(load_calibration(truth), 640, 480)
+    expected = stereo_rectification(rig_calibration(StereoRig()), 640, 480)
+    assert ours.max_shift == expected.max_shift
+    for side in ("left", "right"):
+        for grid in ("dx", "dy"):
+            np.testing.assert_array_equal(getattr(getattr(ours, side), grid),
+                                          getattr(getattr(expected, side), grid))
+
+
 def test_calibrate_reads_a_clip_of_chessboard_pairs(pairs, tmp_path, capsys):
     """`stereogest clip` records the pairs as a clip; calibrate takes it."""
     from sim.clip import Clip, save_clip

@@ -358,6 +358,9 @@ def test_version_and_one_seed_default(capsys):
     seeds = {name: next(a.default for a in p._actions if a.dest == "seed")
              for name, p in sub.choices.items() if any(a.dest == "seed" for a in p._actions)}
     assert set(seeds) == {"render", "chessboards", "demo", "gestures", "train", "timing"}
+    # timing's --seed may be repeated (no default list to append to): none given is DEFAULT_SEED
+    from stereogest.commands.timing import parse_seeds
+    assert seeds.pop("timing") is None and parse_seeds(None, None) == [DEFAULT_SEED]
     assert set(seeds.values()) == {DEFAULT_SEED}
 
 

@@ -17,9 +17,12 @@ def _terms(h, w, nd, max_term, no_match_cost, seed):
     return terms
 
 
-@pytest.mark.parametrize("hamming_window, max_disparity, no_match_cost",
-                         [(1, 3, 0), (3, 4, 2), (5, 6, 5)])
-def test_column_sum_equals_model(hamming_window, max_disparity, no_match_cost):
+@pytest.mark.parametrize("hamming_window, max_disparity, no_match_cost, idle",
+                         [(1, 3, 0, 0.25), (3, 4, 2, 0.25), (5, 6, 5, 0.25),
+                          # D = width: a row's partnerless pixels follow the last
+                          # pixel of the row before within the pipeline's cycles
+                          (3, 12, 4, 0.0), (3, 11, 6, 0.1)])
+def test_column_sum_equals_model(hamming_window, max_disparity, no_match_cost, idle):
     w, h, max_term = 12, 9, 7
     dut = ColumnSum(width=w, height=h, hamming_window=hamming_window,
                     max_disparity=max_disparity, max_term=max_term,
@@ -36,7 +39,7 @@ def test_column_sum_equals_model(hamming_window, max_disparity, no_match_cost):
                       leave=padded[:, y, x]) for y in range(rows) for x in range(w)]
         frames.append(beats[:h * w])
         flush.append(beats[h * w:])
-    layout, out, sels = run_frames(dut, frames, flush_values=flush)
+    layout, out, sels = run_frames(dut, frames, flush_values=flush, idle=idle)
     csum = field(layout, out, "csum", max_disparity)
     for vol, sel in zip(vols, sels):
         got = csum[sel].reshape(h, w, max_disparity).transpose(2, 0, 1)

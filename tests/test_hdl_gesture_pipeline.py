@@ -140,6 +140,49 @@ def test_parameters_are_validated_before_building():
     with pytest.raises(ValueError, match="params"):
         GesturePipeline(32, 16, {"census_window": 3})
     assert VIDEO_STAGES == ("right", "left", "disparity", "skin", "band", "opening")
+    # (the synchroniser's, checked without building it)
+    with pytest.raises(ValueError, match="fifo_depth must be a power of two"):
+        GesturePipeline(32, 16, SMALL, fifo_depth=100)
+    with pytest.raises(ValueError, match=r"threshold must be in \[1, 16\]"):
+        GesturePipeline(32, 16, SMALL, fifo_depth=16, sync_threshold=17)
+
+
+def test_stages_are_built_alone_on_request():
+    """``stage(name)`` (and ``pipeline_stage`` from the parameters alone) builds
+    one stage, or one of the matcher's, with the parameters the pipeline's
+    ``elaborate`` gives it; the pipeline builds nothing until it is elaborated."""
+    from amaranth.hdl import Fragment
+
+    from hdl.gesture_pipeline import PIPELINE_STAGES, pipeline_stage
+    dut = GesturePipeline(32, 16, TRACKING, fifo_depth=256, sync_threshold=8)
+    assert dut.stage_names == tuple(n for n in PIPELINE_STAGES if not n.startswith("rectify"))
+    assert dut.pixel_stage_names == ("to444_left", "median_left", "matcher", "segmentation",
+                                     "opening")
+    stages = {"centroid": dut.stage("centroid"), "synchronizer": dut.stage("synchronizer"),
+              "segmentation": dut.stage("segmentation"),
+              "census": pipeline_stage("matcher.census_left", 32, 16, TRACKING),
+              "columns": dut.stage("matcher.shd.columns")}
+    for stage in stages.values():
+        Fragment.get(stage, None)               # each elaborates alone
+    assert (stages["centroid"].track_gate, stages["centroid"].hand_rows) == (7, 3)
+    sync = stages["synchronizer"]
+    assert (sync.fifo_depth, sync.threshold, sync.flush) == (256, 8, dut.flush)
+    median, matcher = dut.stage("median_left"), dut.stage("matcher")
+    for stage in (median, matcher):
+        Fragment.get(stage, None)
+    assert stages["segmentation"].skin_delay_beats == median.lag + matcher.lag
+    assert stages["census"].census_window == 3 and stages["columns"].max_disparity == 8
+    with pytest.raises(ValueError, match="stage must be one of capture_left, .*, spotting or "
+                                         "matcher.<stage>, got 'rectify_left'"):
+        dut.stage("rectify_left")
+    with pytest.raises(ValueError, match="census_window"):
+        pipeline_stage("centroid", 32, 16, dataclasses.replace(SMALL, census_window=4))
+    rectified = GesturePipeline(32, 16, SMALL, rectification=small_rectification(32, 16))
+    assert rectified.stage_names == PIPELINE_STAGES
+    assert rectified.pixel_stage_names[:2] == ("to444_left", "rectify_left")
+    left = rectified.stage("rectify_left")
+    Fragment.get(left, None)
+    assert left.lanes == 3 and left.max_shift_y == small_rectification(32, 16).max_shift[1]
 
 
 @pytest.mark.parametrize("width, height, params", [
@@ -150,18 +193,37 @@ def test_parameters_are_validated_before_building():
 ])
 def test_pipeline_timing_without_building(width, height, params):
     """hdl.gesture_pipeline.pipeline_timing from the parameters alone equals the
-    sums over the built pipeline's stages (what the simulations feed and drain)."""
-    from hdl.gesture_pipeline import pipeline_timing
+    sums over the built pipeline's stages (what the simulations feed and drain),
+    each built and elaborated alone as the pipeline builds it."""
+    from amaranth.hdl import Fragment
+
+    from hdl.gesture_pipeline import pipeline_memory_bits, pipeline_timing, pixel_stage_timing
     timing = pipeline_timing(width, height, params)
     built = GesturePipeline(width, height, params)
-    stages = built.pixel_stages
+
+    def stage(name):
+        component = built.stage(name)
+        Fragment.get(component, None)           # it elaborates
+        return component
+    stages = [stage(name) for name in built.pixel_stage_names]
+    assert tuple(pixel_stage_timing(width, height, params)) == built.pixel_stage_names
+    assert list(pixel_stage_timing(width, height, params).values()) == \
+        [(s.lag, s.cycles) for s in stages]
     flush = sum(s.lag for s in stages)
     assert timing.flush == flush == built.flush
     assert timing.pixel_cycles == sum(s.cycles for s in stages)
     assert timing.frame_cycles == width * height + flush
     assert timing.record_cycles == (flush + timing.pixel_cycles
-                                    + built._centroid.cycles_after_frame
-                                    + built._average.cycles + built._spotting.cycles + 1)
+                                    + stage("centroid").cycles_after_frame
+                                    + stage("moving_average").cycles
+                                    + stage("spotting").cycles + 1)
+    # the memory of each stage, from the stages' memory functions
+    median, matcher = stage("median_left"), stage("matcher")
+    assert built.memory_bits == pipeline_memory_bits(width, height, params) == {
+        "median row buffers": 2 * median.memory_bits,
+        **{f"matcher {k}": v for k, v in matcher.memory_bits.items()},
+        "skin delay line": stage("segmentation").memory_bits,
+        "opening row buffers": stage("opening").memory_bits}
     # independently, from the stream convention: a window of radius r looks
     # r * width + r beats ahead (4:2:2 one beat; the census and Hamming windows,
     # D - 1 for the consistency check, the disparity and camera medians, the

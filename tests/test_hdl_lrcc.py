@@ -9,7 +9,8 @@ from sim.model.matching import lr_consistency
 from tests.hdl_helpers import run_frames
 
 
-@pytest.mark.parametrize("max_disparity, threshold", [(1, 1), (8, 1), (8, 3), (16, 16)])
+@pytest.mark.parametrize("max_disparity, threshold",
+                         [(1, 1), (5, 2), (8, 1), (8, 3), (16, 16), (20, 4)])
 def test_lrcc(max_disparity, threshold):
     w, h, nd = 20, 6, max_disparity
     rng = np.random.default_rng(nd + threshold)

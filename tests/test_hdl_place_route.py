@@ -11,7 +11,8 @@ from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.place_route import CI_BLOCKS, MAX_IO_BITS, place_and_route
+from hdl.place_route import CI_BLOCKS, CLOCK_PINS, MAX_IO_BITS, _lpf, place_and_route, \
+    place_and_route_seeds
 from stereogest.cli import main
 
 
@@ -38,6 +39,52 @@ def test_ci_blocks_route_at_100_mhz(ci_report):
     assert sync["clocks"]["clk"]["constraint_mhz"] == 100.0
     assert sync["clocks"]["clk"]["fmax_mhz"] >= 100.0
     assert report["passed"] and status == 0
+
+
+def test_clocks_and_reset_as_on_the_board(ci_report):
+    """Every clock comes in on a dedicated clock pin and reaches a global; each
+    domain's reset comes from its synchroniser over a global network, a timed
+    path with its fanout reported."""
+    _, report = ci_report
+    sync = report["blocks"][0]
+    for port in ("clk", "cam_left_clk", "cam_right_clk"):
+        assert f"clock net {port}$TRELLIS_IO_IN to global network" in sync["globals"]
+    assert set(sync["reset"]) == {"sync", "cam_left", "cam_right"}
+    for block in report["blocks"]:
+        reset = block["reset"]["sync"]
+        assert reset["global"] and reset["net"] == "sync_reset_tree"
+        assert reset["fanout"] > 10 and 0 < reset["worst_arrival_ns"] < 10
+
+
+def test_clock_pins_are_located():
+    lpf = _lpf({"clk": 100e6, "cam_left_clk": 50e6, "other_clk": 10e6})
+    assert f'LOCATE COMP "clk" SITE "{CLOCK_PINS["clk"]}";' in lpf
+    assert f'LOCATE COMP "cam_left_clk" SITE "{CLOCK_PINS["cam_left_clk"]}";' in lpf
+    assert 'FREQUENCY PORT "other_clk" 10.000000 MHZ;' in lpf
+    assert 'COMP "other_clk"' not in lpf
+    assert len(set(CLOCK_PINS.values())) == len(CLOCK_PINS)
+
+
+def test_seeds_share_one_synthesis(tmp_path):
+    """Two placer seeds in parallel: one synthesis, a run per seed with its own
+    files and CPU seconds; the command reports each seed and the minimum."""
+    results = place_and_route_seeds(_Wide(), "wide", clocks={"clk": 100e6}, shell=True,
+                                    seeds=(2, 1), jobs=2, keep=tmp_path / "keep")
+    assert [r["seed"] for r in results] == [2, 1]
+    assert results[0]["resources"] == results[1]["resources"]
+    assert all(r["pnr_cpu_s"] > 0 for r in results)
+    for seed in (1, 2):
+        assert (tmp_path / "keep" / f"report_s{seed}.json").exists()
+        assert (tmp_path / "keep" / f"nextpnr_s{seed}.log").exists()
+    out = tmp_path / "t.json"
+    assert main(["timing", "--block", "moving_average", "--seeds", "1,2", "--seed", "3",
+                 "--jobs", "2", "-o", str(out), "--quiet"]) == 0
+    report = json.loads(out.read_text())
+    assert report["seeds"] == [3, 1, 2] and "blocks" not in report
+    fmax = [run["blocks"][0]["clocks"]["clk"]["fmax_mhz"] for run in report["runs"]]
+    assert [run["seed"] for run in report["runs"]] == [3, 1, 2]
+    assert report["min_fmax_mhz"] == {"moving_average": {"clk": min(fmax)}}
+    assert report["passed"]
 
 
 def test_report_fields(ci_report):
@@ -115,6 +162,10 @@ def test_unknown_clock_port():
     (["--census-window", "4"], "--census-window must be odd"),
     (["--width", "641"], "--width must be even"),
     (["--seed", "0"], "--seed must be"),
+    (["--seeds", "1,x"], "--seeds must be integers in [1, 2147483647] separated by commas"),
+    (["--seeds", "1,0"], "--seeds must be in [1, 2147483647], got 0"),
+    (["--seeds", "1,2", "--seed", "2"], "--seeds/--seed name a seed twice: 2, 1, 2"),
+    (["--jobs", "0"], "--jobs must be in [1, 16], got 0"),
     (["--timeout", "0"], "--timeout must be in"),
     (["--json", "/nonexistent-dir/t.json"], "--json: directory /nonexistent-dir does not exist"),
     (["--json", "/"], "--json: / is a directory"),

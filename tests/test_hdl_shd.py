@@ -49,3 +49,31 @@ def test_shd_census7_window1_and_no_match_cost():
     imgs = [(random_image(h, w, 7), random_image(h, w, 8))] * 2
     _shd_case(w, h, 7, 1, 8, imgs, no_match_cost=0)
     _shd_case(w, h, 3, 7, 16, imgs, no_match_cost=4)
+
+
+def test_parts_are_built_alone_on_request():
+    """``stage(name)`` builds that part alone, with the parameters ``elaborate``
+    gives it; the SHD's figures (cost bits, memory) come without building them."""
+    from amaranth.hdl import Fragment
+
+    from hdl.column_sum import ColumnSum
+    from hdl.hamming import HammingDistances
+    from hdl.shd import SHD_STAGES, shd_cost_bits, shd_memory_bits
+    from hdl.window_sum import WindowSum
+    dut = SumOfHammingDistances(40, 8, census_bits=12, hamming_window=5, max_disparity=6,
+                                no_match_cost=2)
+    assert dut.stage_names == SHD_STAGES == ("columns", "windows", "hamming")
+    columns, windows, hamming = (dut.stage(name) for name in SHD_STAGES)
+    for part in (columns, windows, hamming):
+        Fragment.get(part, None)                # each elaborates alone
+    assert (type(columns), type(windows), type(hamming)) == \
+        (ColumnSum, WindowSum, HammingDistances)
+    assert columns.no_match_cost == 2 and columns.max_term == 12
+    assert windows.max_term == 5 * 12 and hamming.codes == 6
+    assert dut.cost_bits == windows.sum_bits == shd_cost_bits(12, hamming_window=5)
+    assert dut.memory_bits == shd_memory_bits(40, census_bits=12, hamming_window=5,
+                                              max_disparity=6) == {
+        "column sums": columns.memory_bits, "window-sum ring buffer": windows.memory_bits}
+    assert dut.o_stream.payload.shape() == windows.o_stream.payload.shape()
+    with pytest.raises(ValueError, match="stage must be one of columns, windows, hamming"):
+        dut.stage("census")

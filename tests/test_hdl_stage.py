@@ -1,7 +1,8 @@
 # amaranth: UnusedElaboratable=no
 """hdl/stage.py: every pixel stage declares the PixelStage protocol, and the
 ``*_timing`` function beside each component gives, from its parameters alone,
-the lag and cycles of the built component."""
+the lag and cycles of the built component; the memory the stages declare (from
+their memory functions) is the memory they build."""
 import numpy as np
 import pytest
 
@@ -15,7 +16,7 @@ from hdl.rectify import Rectifier, rectify_timing
 from hdl.segmentation import HandSegmentation
 from hdl.selectors import DisparitySelectors, selectors_timing
 from hdl.shd import SumOfHammingDistances, shd_timing
-from hdl.stage import PixelStage, StageTiming
+from hdl.stage import PixelStage, StageTiming, window_memory_bits
 from hdl.stereo_matcher import StereoMatcher, matcher_timing
 from hdl.window import WindowGenerator, window_timing
 from hdl.window_sum import WindowSum, window_sum_timing
@@ -70,6 +71,40 @@ def test_every_pixel_stage_declares_the_protocol(make):
     assert stage.lag >= 0 and stage.cycles >= 1
     bits = stage.memory_bits
     assert isinstance(bits, (int, dict))
+
+
+@pytest.mark.parametrize("make", [case[0] for case in CASES] + [
+    lambda: HandSegmentation(width=W, height=H, max_disparity=8, band_low=2,
+                             skin_delay_beats=100, skin_delay_cycles=5)])
+def test_memory_bits_are_the_memories_built(make):
+    """``memory_bits`` (computed from the stage's parameters: the children are
+    built in ``elaborate``) adds up to the memories of the elaborated design."""
+    from amaranth.back import rtlil
+
+    from hdl.synthesis import component_ports
+    from soc.resources import memory_bits
+    stage = make()
+    declared = stage.memory_bits
+    total = sum(declared.values()) if isinstance(declared, dict) else declared
+    built = memory_bits(rtlil.convert(stage, ports=component_ports(stage)))
+    assert total == sum(built.values())
+    if isinstance(stage, (WindowGenerator, Median3x3, SparseCensus)):
+        assert total > 0
+
+
+@pytest.mark.parametrize("window, pixel_bits, separation", [(1, 8, 0), (3, 8, 0), (7, 3, 0),
+                                                           (5, 8, 5), (3, 1, 7), (7, 8, 3)])
+def test_window_memory_bits_is_the_generator_s(window, pixel_bits, separation):
+    """The formula against the memories the generator builds."""
+    from amaranth.back import rtlil
+
+    from hdl.synthesis import component_ports
+    from soc.resources import memory_bits
+    dut = WindowGenerator(width=W, height=H, pixel_bits=pixel_bits, window=window,
+                          separation=separation)
+    built = memory_bits(rtlil.convert(dut, ports=component_ports(dut)))
+    assert window_memory_bits(W, window=window, pixel_bits=pixel_bits,
+                              separation=separation) == sum(built.values())
 
 
 def test_the_protocol_is_not_satisfied_by_anything():

@@ -178,3 +178,34 @@ def test_stage_validation_names_the_parameter():
         Median3x3(16, 8, 0)
     with pytest.raises(ValueError, match="height"):
         WindowGenerator(16, 1, 8, 3)
+
+
+def test_stages_are_built_alone_on_request():
+    """``stage(name)`` builds that stage alone, with the parameters the matcher's
+    ``elaborate`` gives it (the SHD's parts as ``shd.<part>``); the matcher and its
+    figures build nothing."""
+    from amaranth.hdl import Fragment
+
+    from hdl.census import SparseCensus
+    from hdl.column_sum import ColumnSum
+    from hdl.stereo_matcher import MATCHER_STAGES, matcher_stage
+    dut = StereoMatcher(32, 8, 5, 7, 8, no_match_cost=3)
+    assert dut.stage_names == MATCHER_STAGES
+    kinds = {"census_left": SparseCensus, "census_right": SparseCensus,
+             "shd": SumOfHammingDistances, "select": DisparitySelectors,
+             "check": LeftRightCheck, "median": Median3x3, "shd.columns": ColumnSum}
+    stages = {name: dut.stage(name) for name in kinds}
+    for name, stage in stages.items():
+        assert type(stage) is kinds[name]
+        Fragment.get(stage, None)               # each elaborates alone
+    assert stages["census_left"].separation == 7 and stages["census_left"].census_window == 5
+    assert stages["shd"].no_match_cost == stages["shd.columns"].no_match_cost == 3
+    assert stages["select"].cost_bits == stages["shd"].cost_bits
+    assert stages["median"].pixel_bits == dut.disparity_bits
+    no_median = StereoMatcher(32, 8, 5, 7, 8, disparity_median=False)
+    assert no_median.stage_names == MATCHER_STAGES[:-1]
+    for bad in ("median", "shd.census", "lrcc"):
+        with pytest.raises(ValueError, match="stage must be one of census_left, .*, check or"):
+            no_median.stage(bad)
+    with pytest.raises(ValueError, match="stage must be one of .*, median or"):
+        matcher_stage("left", 32, 8)

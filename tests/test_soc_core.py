@@ -39,12 +39,24 @@ def test_core_ports_are_the_documented_ones():
 @pytest.mark.parametrize("kwargs, word", [
     (dict(sync_freq=0), "sync_freq"), (dict(config_freq=1e12), "config_freq"),
     (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"),
+    (dict(vga_scale=3), r"vga_scale must be in \[1, 2\]"), (dict(vga_scale=0), "vga_scale"),
 ])
 def test_core_rejects_bad_parameters(kwargs, word):
     args = dict(width=W, height=H, params=SMALL)
     args.update(kwargs)
     with pytest.raises(ValueError, match=word):
         StereogestCore(**args)
+
+
+@pytest.mark.parametrize("vga_scale, words", [(1, W * H), (2, W * H // 4), (None, W * H // 4)])
+def test_core_frame_buffer_resolution(vga_scale, words):
+    """``vga_scale`` reaches the frame buffer (half resolution by default)."""
+    from amaranth.hdl import Fragment
+    args = {} if vga_scale is None else dict(vga_scale=vga_scale)
+    core = StereogestCore(W, H, SMALL, **args)
+    assert core.frame_buffer.depth == words
+    assert core.frame_buffer.scale == (vga_scale or 2)
+    Fragment.get(core, None)            # elaborates (no unused elaboratables left)
 
 
 def test_core_with_rectification_has_its_stages_and_the_same_ports():

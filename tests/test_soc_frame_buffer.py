@@ -1,15 +1,15 @@
 # amaranth: UnusedElaboratable=no
 """soc/frame_buffer.py: the dual-clock frame buffer of the VGA debug view in the
 Amaranth simulator, bit for bit against the golden model
-:func:`sim.model.vga.vga_frame` on a small test mode, the pipeline clock (10 ns)
-and the pixel clock (39.7 ns) unrelated."""
+:func:`sim.model.vga.vga_frame` on a small test mode, at full and half
+resolution, the pipeline clock (10 ns) and the pixel clock (39.7 ns) unrelated."""
 import re
 
 import numpy as np
 import pytest
 from amaranth.sim import Simulator
 
-from soc.frame_buffer import READ_LATENCY, FrameBuffer
+from soc.frame_buffer import READ_LATENCY, VGA_SCALE, FrameBuffer
 from sim.model.vga import VGA_CHANNELS, vga_frame
 from tests.test_soc_vga_timing import (TEST_MODE, TEST_MODE_POSITIVE, VGA_PERIOD,
                                        check_sync_pulses)
@@ -79,57 +79,72 @@ def _run_frame_buffer(dut, images, seed, extra_beats=20, idle=0.3):
     return frames
 
 
-@pytest.mark.parametrize("width, height, pixel_bits, mode", [
-    (12, 6, 4, TEST_MODE), (16, 8, 4, TEST_MODE), (16, 8, 3, TEST_MODE_POSITIVE),
-    (12, 6, 8, TEST_MODE_POSITIVE), (16, 8, 1, TEST_MODE), (1, 1, 5, TEST_MODE)])
-def test_frame_buffer_equals_model(width, height, pixel_bits, mode):
-    rng = np.random.default_rng(width * 100 + pixel_bits)
+@pytest.mark.parametrize("width, height, pixel_bits, mode, scale", [
+    (12, 6, 4, TEST_MODE, 1), (16, 8, 4, TEST_MODE, 1), (16, 8, 3, TEST_MODE_POSITIVE, 1),
+    (12, 6, 8, TEST_MODE_POSITIVE, 1), (16, 8, 1, TEST_MODE, 1), (1, 1, 5, TEST_MODE, 1),
+    # half resolution: even and odd sizes (the last column / row stored once), one
+    # column, one row, one pixel
+    (16, 8, 4, TEST_MODE, 2), (13, 7, 3, TEST_MODE_POSITIVE, 2), (12, 5, 8, TEST_MODE, 2),
+    (1, 8, 4, TEST_MODE_POSITIVE, 2), (16, 1, 2, TEST_MODE, 2), (1, 1, 5, TEST_MODE, 2)])
+def test_frame_buffer_equals_model(width, height, pixel_bits, mode, scale):
+    rng = np.random.default_rng(width * 100 + pixel_bits * 10 + scale)
     images = [rng.integers(0, 256, (height, width)).astype(np.uint8) for _ in range(2)]
     images[1][0, 0] = 255 - images[0][0, 0]  # the second frame must change pixel 0
-    dut = FrameBuffer(width, height, mode, pixel_bits)
+    dut = FrameBuffer(width, height, mode, pixel_bits, scale=scale)
     assert dut.latency == READ_LATENCY
-    assert dut.memory_bits == width * height * pixel_bits
-    got = _run_frame_buffer(dut, images, seed=width + pixel_bits)
+    assert dut.memory_bits == -(-width // scale) * -(-height // scale) * pixel_bits
+    got = _run_frame_buffer(dut, images, seed=width + pixel_bits + scale)
     for image, frame in zip(images, got):
         check_sync_pulses(frame, mode)
-        expected = vga_frame(image, mode, pixel_bits)
+        expected = vga_frame(image, mode, pixel_bits, scale=scale)
         for channel, name in enumerate(VGA_CHANNELS):
             assert (frame[:, :, channel] == expected[:, :, channel]).all(), name
+        if scale == 2 and width > 1:    # the check tells the two scales apart
+            assert (frame[:, :, 0] != vga_frame(image, mode, pixel_bits)[:, :, 0]).any()
     assert (got[0][:, :, 0] != got[1][:, :, 0]).any()  # the second frame overwrote
 
 
-def test_frame_buffer_ignores_pixels_before_the_first_frame():
+@pytest.mark.parametrize("scale", [1, 2])
+def test_frame_buffer_ignores_pixels_before_the_first_frame(scale):
     """Beats before the first ``first`` (e.g. the tail of a frame when the
     pipeline starts) leave the buffer black; the next frame is shown whole."""
     mode = TEST_MODE
     image = np.random.default_rng(7).integers(1, 256, (8, 16)).astype(np.uint8)
-    dut = FrameBuffer(16, 8, mode, 4)
+    dut = FrameBuffer(16, 8, mode, 4, scale=scale)
     got = _run_frame_buffer(dut, [None, image], seed=3, extra_beats=40)
-    assert (got[0] == vga_frame(np.zeros((8, 16), np.uint8), mode, 4)).all()
-    assert (got[1] == vga_frame(image, mode, 4)).all()
+    assert (got[0] == vga_frame(np.zeros((8, 16), np.uint8), mode, 4, scale=scale)).all()
+    assert (got[1] == vga_frame(image, mode, 4, scale=scale)).all()
 
 
-@pytest.mark.parametrize("kwargs, name", [
+@pytest.mark.parametrize("kwargs, match", [
     (dict(width=641), "width"), (dict(width=0), "width"), (dict(height=481), "height"),
     (dict(height=0), "height"), (dict(pixel_bits=0), "pixel_bits"),
-    (dict(pixel_bits=9), "pixel_bits"), (dict(mode=(640, 480)), "mode")])
-def test_frame_buffer_validation(kwargs, name):
-    with pytest.raises(ValueError, match=name):
+    (dict(pixel_bits=9), "pixel_bits"), (dict(mode=(640, 480)), "mode"),
+    (dict(scale=0), r"scale must be in \[1, 2\], got 0"),
+    (dict(scale=3), r"scale must be in \[1, 2\], got 3"),
+    (dict(scale=1.5), r"scale must be an integer in \[1, 2\]")])
+def test_frame_buffer_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
         FrameBuffer(**kwargs)
 
 
-def test_frame_buffer_elaborates_at_board_size():
-    """640x480x4: one memory of 307,200 x 4 bits, written on the pipeline clock
-    and read on the pixel clock only; the ports of VgaOutputSignature."""
+@pytest.mark.parametrize("scale, words", [(1, 640 * 480), (2, 320 * 240)])
+def test_frame_buffer_elaborates_at_board_size(scale, words):
+    """640x480x4: one memory of 4-bit words (307,200 at full resolution, 150
+    M10K; 76,800 at half), written on the pipeline clock and read on the pixel
+    clock only; the ports of VgaOutputSignature. Half resolution is the default."""
     from amaranth.back import rtlil
 
     from hdl.synthesis import component_ports
-    dut = FrameBuffer()
-    assert dut.memory_bits == 1_228_800 == 150 * 2048 * 4
+    assert VGA_SCALE == FrameBuffer().scale == 2
+    dut = FrameBuffer(scale=scale)
+    assert dut.memory_bits == words * 4
+    if scale == 1:
+        assert dut.memory_bits == 150 * 2048 * 4      # 150 M10K in 2K x 4 mode
     assert [path for path, _, _ in dut.vga.signature.flatten(dut.vga)] == [
         ("r",), ("g",), ("b",), ("hsync",), ("vsync",), ("blank_n",)]
     text = rtlil.convert(dut, ports=component_ports(dut))
-    assert re.search(r"memory width 4 size 307200 ", text)
+    assert re.search(rf"memory width 4 size {words} ", text)
     cells = text.split("\n  cell ")
     write_clocks = {c for cell in cells if cell.startswith("$memwr")
                     for c in re.findall(r"connect \\CLK \\(\S+)", cell)}

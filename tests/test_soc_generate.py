@@ -108,11 +108,20 @@ def top_ports(files):
     return verilog_ports(files["stereogest.v"], gen.PROJECT)
 
 
+def emitted(core, text):
+    """:func:`soc.core.emit_core_verilog` faked: the core is elaborated (a second
+    at 640x480), its Verilog (the slow part) is ``text``."""
+    from amaranth.hdl import Fragment
+    Fragment.get(core, None)
+    return text
+
+
 @pytest.fixture
 def fast_core(monkeypatch, files):
     """Make :func:`soc.generate.generate` reuse the fixture's core Verilog."""
     import soc.core
-    monkeypatch.setattr(soc.core, "emit_core_verilog", lambda core: files[gen.CORE_FILE])
+    monkeypatch.setattr(soc.core, "emit_core_verilog",
+                        lambda core: emitted(core, files[gen.CORE_FILE]))
 
 
 def test_bundle_files(bundle, files):
@@ -700,7 +709,8 @@ def test_replaces_a_previous_bundle_and_leaves_nothing_on_error(tmp_path, fast_c
     import soc.core
 
     def broken(core):
-        raise RuntimeError("elaboration failed")
+        emitted(core, "")
+        raise RuntimeError("Verilog emission failed")
     monkeypatch.setattr(soc.core, "emit_core_verilog", broken)
     with pytest.raises(RuntimeError):
         gen.generate(tmp_path / "other")
@@ -732,13 +742,15 @@ def test_cli_generate_hand_tracking_builds_the_tracking_centroid(tmp_path, capsy
                                                                  monkeypatch, files):
     """--hand-tracking: the core gets the thesis parameters plus the centroid's
     hand tracking for its width, and the bundle's marker says so."""
+    from amaranth.hdl import Fragment
+
     import soc.core
     from sim.model.pipeline import PipelineParams, hand_tracking_for
     cores = []
 
     def emit(core):
         cores.append(core)
-        return files[gen.CORE_FILE]
+        return emitted(core, files[gen.CORE_FILE])
     monkeypatch.setattr(soc.core, "emit_core_verilog", emit)
     for option, expected in ((["--hand-tracking"], hand_tracking_for(640)), ([], {})):
         out = tmp_path / ("t" if option else "p")
@@ -746,11 +758,36 @@ def test_cli_generate_hand_tracking_builds_the_tracking_centroid(tmp_path, capsy
         assert status == 0, err
         params = dataclasses.replace(PipelineParams(), **expected)
         assert cores[-1].params == params
-        assert cores[-1].pipeline._centroid.track_gate == params.track_gate
+        centroid = cores[-1].pipeline.stage("centroid")      # built alone, elaborated
+        Fragment.get(centroid, None)
+        assert centroid.track_gate == params.track_gate
         marker = json.loads((out / gen.MARKER).read_text())
         assert marker["hand_tracking"] == {"track_gate": params.track_gate,
                                            "hand_rows": params.hand_rows}
     assert hand_tracking_for(640)["track_gate"] > 0
+
+
+def test_cli_generate_vga_scale_sets_the_frame_buffer(tmp_path, capsys, monkeypatch, files):
+    """--vga-scale: the core's frame buffer at full or half resolution (half by
+    default); the marker and the bundle's README say which."""
+    import soc.core
+    cores = []
+
+    def emit(core):
+        cores.append(core)
+        return emitted(core, files[gen.CORE_FILE])
+    monkeypatch.setattr(soc.core, "emit_core_verilog", emit)
+    for option, scale, words in ((["--vga-scale", "1"], 1, 640 * 480),
+                                 (["--vga-scale", "2"], 2, 320 * 240), ([], 2, 320 * 240)):
+        out = tmp_path / f"s{len(cores)}"
+        status, _, err = run(capsys, "generate", "--out", out, "--quiet", *option)
+        assert status == 0, err
+        assert cores[-1].frame_buffer.scale == scale
+        assert cores[-1].frame_buffer.depth == words
+        assert json.loads((out / gen.MARKER).read_text())["vga_scale"] == scale
+        readme = (out / "README.md").read_text()
+        assert ("half resolution" in readme) == (scale == 2)
+        assert ("full resolution" in readme) == (scale == 1)
 
 
 # ---- board, parser, top ---------------------------------------------------------------

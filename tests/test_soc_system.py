@@ -44,25 +44,59 @@ def system_run():
     trajectory, kept = run_clip(left, right, SMALL, keep=lambda n: n == 11)
     left, right, played, extra = hold_still(left, right, trajectory, SMALL)
     result = run_end_to_end(left, right, models, played, kept[11], SMALL, stage="left")
-    return result, played, extra
+    return result, played, extra, kept[11]
 
 
 def test_fifo_words_equal_the_golden_model(system_run):
-    result, played, _ = system_run
+    result, played, _, _ = system_run
     assert played.flag.any()
     assert result.expected, "the clip must flag some frames"
     assert result.popped == result.expected
 
 
 def test_vga_frame_equals_the_golden_model(system_run):
-    result, _, _ = system_run
+    """The core's default frame buffer (half resolution) shows the model's
+    picture of the last frame, pixel for pixel; the full-resolution picture
+    is not what it shows (the check tells the two apart)."""
+    from hdl.lrcc import disparity_bits
+    from sim.model.vga import vga_frame
+    from soc.core import FRAME_BUFFER_BITS, VGA_SCALE
+    from soc.vga_timing import VGA_640x480_60
+    result, _, _, stages = system_run
     assert result.vga.shape == (480, 640)
     assert result.vga[:H, :W].any()
     assert result.vga_mismatches == 0
+    picture = video_picture(stages, "left", disparity_bits(SMALL.max_disparity))
+    for scale in (1, 2):
+        shown = vga_frame(picture, VGA_640x480_60, FRAME_BUFFER_BITS, scale=scale)[:480, :640, 0]
+        assert np.array_equal(result.vga, shown) == (scale == VGA_SCALE)
+
+
+def test_vga_frame_at_full_resolution_equals_the_golden_model():
+    """``vga_scale=1`` reaches the Verilated core: a short clip, the last frame's
+    picture shown whole, pixel for pixel (and not the half-resolution one)."""
+    from pathlib import Path
+
+    import sw_hps
+    from hdl.lrcc import disparity_bits
+    from sim.model.vga import vga_frame
+    from soc.core import FRAME_BUFFER_BITS
+    from soc.vga_timing import VGA_640x480_60
+    from sw_hps.hmm import load_models
+    models = load_models(Path(sw_hps.__file__).parent / "models" / "thesis7.json")
+    left, right = small_frames(3, W, H)
+    trajectory, kept = run_clip(left, right, SMALL, keep=lambda n: n == 2)
+    left, right, played, _ = hold_still(left, right, trajectory, SMALL)
+    result = run_end_to_end(left, right, models, played, kept[2], SMALL, stage="right",
+                            vga_scale=1)
+    assert result.vga_mismatches == 0 and result.vga[:H, :W].any()
+    picture = video_picture(kept[2], "right", disparity_bits(SMALL.max_disparity))
+    half = vga_frame(picture, VGA_640x480_60, FRAME_BUFFER_BITS, scale=2)[:480, :640, 0]
+    assert not np.array_equal(result.vga, half)
 
 
 def test_leds_show_go_and_the_unanswered_configuration(system_run):
-    result, _, _ = system_run
+    result, _, _, _ = system_run
     leds = result.leds
     assert leds & (1 << 5), "GO set by the application"
     assert leds & (1 << 2), "no I2C target in this simulation: configuration error"
@@ -70,7 +104,7 @@ def test_leds_show_go_and_the_unanswered_configuration(system_run):
 
 
 def test_hold_still_ends_the_flag(system_run):
-    _, played, extra = system_run
+    _, played, extra, _ = system_run
     assert not played.flag[-1]
     assert frames_to_still(played, SMALL) == 0
 

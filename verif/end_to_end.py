@@ -121,7 +121,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
                    *, stage: str = "opening", clocks: Clocks = Clocks(),
                    poll_interval: float = 0.005, progress=None, exe=None,
-                   rectification=None) -> EndToEndResult:
+                   rectification=None, vga_scale: int | None = None) -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
     Parameters
@@ -141,6 +141,9 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         A prebuilt harness (:func:`verif.system.build_system`).
     rectification : sim.model.rectify.StereoRectification, optional
         The core rectifies with these maps (as the golden model did).
+    vga_scale : int in [1, 2], optional
+        Resolution of the core's VGA frame buffer (None:
+        :data:`soc.frame_buffer.VGA_SCALE`); the model's picture is shown alike.
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
     from hdl.lrcc import disparity_bits
@@ -149,11 +152,12 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     from sw_hps.fifo import CTRL_FIFO_DATA, CTRL_NO_GESTURE, FifoPeripheral
     from sw_hps.robot import UartLink
 
-    from soc.core import FRAME_BUFFER_BITS, UART_BASE
+    from soc.core import FRAME_BUFFER_BITS, UART_BASE, VGA_SCALE
     from soc.vga_timing import VGA_640x480_60
 
     if stage not in VIDEO_STAGES:
         raise ValueError(f"stage must be one of {list(VIDEO_STAGES)}, got {stage!r}")
+    vga_scale = VGA_SCALE if vga_scale is None else vga_scale
     frames = len(left_frames)
     height, width = np.shape(left_frames)[1], np.shape(left_frames)[2] // 2
     timing = pipeline_timing(width, height, params, rectification)
@@ -162,7 +166,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     start = time.perf_counter()
     with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
                          stage=VIDEO_STAGES.index(stage),
-                         log=progress, exe=exe, rectification=rectification) as system:
+                         log=progress, exe=exe, rectification=rectification,
+                         vga_scale=vga_scale) as system:
         bus = SystemBus(system)
         # The app's timeouts run on the hardware's simulated time (a simulated frame
         # takes far longer than 33 ms of wall time), its frame is the clip's.
@@ -199,7 +204,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     if last_stages is not None:
         mode = VGA_640x480_60
         picture = video_picture(last_stages, stage, disparity_bits(params.max_disparity))
-        raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS)
+        raster = vga_frame(picture, mode, pixel_bits=FRAME_BUFFER_BITS, scale=vga_scale)
         active = raster[..., 5].astype(bool)
         vga_expected = raster[..., 0][active].reshape(mode.v_active, mode.h_active)
     return EndToEndResult(
@@ -214,7 +219,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
 
 def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
                     keep=(), threads=None, model_progress=None, progress=None, exe=None,
-                    rectification=None):
+                    rectification=None, vga_scale: int | None = None):
     """A rendered clip end to end: the golden model over every frame (keeping the
     stages of the frames in ``keep`` and of the last one), the hold-still
     extension, then :func:`run_end_to_end`. Returns (model trajectory of the
@@ -227,5 +232,5 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
     left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
                             stage=stage, progress=progress, exe=exe,
-                            rectification=rectification)
+                            rectification=rectification, vga_scale=vga_scale)
     return played, kept, extra, result

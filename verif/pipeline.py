@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The GesturePipeline's Verilog under Verilator with the C++ harness
 ``verif/cpp/pipeline_harness.cpp``: camera pin waveforms in (:mod:`sim.camera`,
 :mod:`verif.clocks`), per-frame records out, no Python per cycle (cached
@@ -18,7 +17,8 @@ import numpy as np
 from sim.model.pipeline import PipelineParams
 
 from .clocks import Clocks, camera_waveforms, clip_timing
-from .verilator import CPP, EMISSIONS, build_root, simulation_verilog, sources_digest, verilate
+from .verilator import (CPP, EMISSIONS, build_root, check_emission, simulation_verilog,
+                        sources_digest, verilate)
 
 __all__ = ["PipelineRun", "build_pipeline", "run_pipeline",
            "run_clip_hardware", "RECORD_FIELDS"]
@@ -102,6 +102,7 @@ def build_pipeline(width: int, height: int, params: PipelineParams = PipelinePar
     from sim.model.pipeline import check_rectification
     params.validate(width, height)
     check_rectification(rectification, width, height)
+    check_emission(emission)       # before a pipeline is built for it
     spec = dict(width=width, height=height, fifo_depth=fifo_depth, threads=threads,
                 cflags=cflags, emission=emission, **params.as_dict())
     if rectification is not None:

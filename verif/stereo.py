@@ -1,4 +1,3 @@
-# amaranth: UnusedElaboratable=no
 """The StereoMatcher's Verilog under Verilator with the C++ harness
 ``verif/cpp/stereo_harness.cpp``: whole frames, no Python per cycle (cached
 builds: :mod:`verif.verilator`).
@@ -13,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .verilator import CPP, EMISSIONS, build_root, simulation_verilog, sources_digest, verilate
+from .verilator import (CPP, EMISSIONS, build_root, check_emission, simulation_verilog,
+                        sources_digest, verilate)
 
 __all__ = ["matcher_verilog", "build_matcher", "run_matcher", "HARNESS"]
 
@@ -49,25 +49,22 @@ def _source_digest() -> str:
     return sources_digest(["hdl"], [HARNESS])
 
 
-def _params(dut) -> dict:
-    return dict(width=dut.width, height=dut.height, census_window=dut.census_window,
-                hamming_window=dut.hamming_window, max_disparity=dut.max_disparity,
-                pixel_bits=dut.pixel_bits, no_match_cost=dut.no_match_cost,
-                disparity_median=dut.disparity_median)
-
-
 def build_matcher(jobs: int | None = None, log=None, emission: str = EMISSIONS[0],
                   **params) -> Path:
     """Build (or reuse) the Verilated harness of ``StereoMatcher(**params)``, its
     Verilog written as ``emission`` says; returns the executable's path."""
     from hdl.stereo_matcher import StereoMatcher
-    dut = StereoMatcher(**params)
-    spec = dict(_params(dut), emission=emission)
+    # the parameters as given (numpy scalars as Python's): the matcher is built
+    # for a new build only
+    spec = {name: value.item() if isinstance(value, np.generic) else value
+            for name, value in params.items()}
+    spec["emission"] = check_emission(emission)
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     folder = build_root() / f"{key}-{_source_digest()}"
     exe = folder / "obj_dir" / "stereo_harness"
     if exe.exists():
         return exe
+    dut = StereoMatcher(**params)
     core = TOP + "_core"
     verilate(folder, f"{TOP}.v", matcher_verilog(dut, core, emission) + _wrapper(dut, core), spec,
              TOP, "stereo_harness", HARNESS, jobs=jobs, cflags="-O1", log=log)

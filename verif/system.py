@@ -66,22 +66,27 @@ def _wrapper(core) -> str:
             f"  stereogest_core core({', '.join(connections)});\nendmodule\n")
 
 
-def _make_core(width, height, params, clocks: Clocks, rectification=None):
-    from soc.core import StereogestCore
+def _make_core(width, height, params, clocks: Clocks, rectification=None, vga_scale=None):
+    from soc.core import VGA_SCALE, StereogestCore
     return StereogestCore(width, height, params, rectification=rectification,
-                          sync_freq=clocks.sync_hz, config_freq=1e12 / clocks.config_ps)
+                          sync_freq=clocks.sync_hz, config_freq=1e12 / clocks.config_ps,
+                          vga_scale=VGA_SCALE if vga_scale is None else vga_scale)
 
 
 def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
                  clocks: Clocks = Clocks(), jobs: int | None = None,
-                 log=None, emission: str = EMISSIONS[0], rectification=None) -> Path:
+                 log=None, emission: str = EMISSIONS[0], rectification=None,
+                 vga_scale: int | None = None) -> Path:
     """Build (or reuse, cached under ``<build>/verilator/system-*``) the Verilated
     core with the harness, its Verilog written as ``emission`` says
-    (:data:`verif.verilator.EMISSIONS`), with ``rectification``'s stages if given;
-    returns the executable."""
-    from soc.core import CORE_NAME, strip_zero_init
+    (:data:`verif.verilator.EMISSIONS`), with ``rectification``'s stages if given,
+    its VGA frame buffer at ``vga_scale`` (None: the core's default); returns the
+    executable."""
+    from soc.core import CORE_NAME, VGA_SCALE, strip_zero_init
+    vga_scale = VGA_SCALE if vga_scale is None else vga_scale
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
-                config_ps=clocks.config_ps, emission=emission, **params.as_dict())
+                config_ps=clocks.config_ps, emission=emission, vga_scale=vga_scale,
+                **params.as_dict())
     if rectification is not None:
         spec["rectification"] = rectification.digest()
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
@@ -92,7 +97,7 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
         return exe
     if log is not None:
         log(f"building the Verilated system ({width}x{height}; a few minutes, cached)")
-    core = _make_core(width, height, params, clocks, rectification)
+    core = _make_core(width, height, params, clocks, rectification, vga_scale)
     text = strip_zero_init(simulation_verilog(core, CORE_NAME, emission=emission)) \
         + _wrapper(core)
     return verilate(folder, f"{TOP}.v", text, spec, TOP, "system_harness", HARNESS,
@@ -115,11 +120,13 @@ class VerilatorSystem:
         (default: build or reuse the cached one).
     rectification : sim.model.rectify.StereoRectification, optional
         The core's rectification stages (their maps), as :func:`build_system`.
+    vga_scale : int in [1, 2], optional
+        Resolution of the core's VGA frame buffer (None: its default).
     """
 
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
                  *, clocks: Clocks = Clocks(), stage: int = 5, log=None,
-                 exe: Path | None = None, rectification=None):
+                 exe: Path | None = None, rectification=None, vga_scale: int | None = None):
         from hdl.gesture_pipeline import pipeline_timing
         from sim.camera import pack_pins
         from soc.vga_timing import VGA_640x480_60
@@ -133,7 +140,7 @@ class VerilatorSystem:
         self.clocks = clocks
         self.exe = Path(exe) if exe is not None else \
             build_system(self.width, self.height, params, clocks, log=log,
-                         rectification=rectification)
+                         rectification=rectification, vga_scale=vga_scale)
         flush = pipeline_timing(self.width, self.height, params, rectification).flush
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")

@@ -20,8 +20,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 
-__all__ = ["verilator_env", "verilate", "simulation_verilog", "EMISSIONS", "build_root",
-           "build_lock", "sources_digest", "ROOT", "CPP"]
+__all__ = ["verilator_env", "verilate", "simulation_verilog", "check_emission", "EMISSIONS",
+           "build_root", "build_lock", "sources_digest", "ROOT", "CPP"]
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The C++ harnesses and their shared header.
@@ -70,13 +70,20 @@ EMISSIONS = ("amaranth", "yosys")
 SIMULATION_PASSES = ("proc -norom", "memory_collect", "opt_clean", "opt_dff", "opt_clean")
 
 
+def check_emission(emission: str) -> str:
+    """``emission`` if it is one of :data:`EMISSIONS` (checked before a design
+    is built for it), else ``ValueError``."""
+    if emission not in EMISSIONS:
+        raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+    return emission
+
+
 def simulation_verilog(elaboratable, name: str, ports=None,
                        emission: str = EMISSIONS[0]) -> str:
     """Verilog of ``elaboratable`` as module ``name`` for Verilator, written as
     ``emission`` says (:data:`EMISSIONS`); ports as ``amaranth.back.verilog.convert``."""
     from amaranth.back import rtlil, verilog
-    if emission not in EMISSIONS:
-        raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+    check_emission(emission)
     if emission == "amaranth":
         return verilog.convert(elaboratable, name=name, ports=ports, emit_src=False)
     from amaranth._toolchain.yosys import find_yosys

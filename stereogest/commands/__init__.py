@@ -35,11 +35,31 @@ def add_calibration_options(parser) -> None:
 def add_hand_tracking_option(parser) -> None:
     """``--hand-tracking``: the centroid's hand tracking (not in the thesis; the
     gate and top rows of :data:`sim.model.pipeline.HAND_TRACKING_640`, scaled to
-    the width), worded once for demo, pipeline, live and generate."""
+    the width), worded once for demo, pipeline, live, generate, timing and
+    resources."""
     parser.add_argument("--hand-tracking", action="store_true",
                         help="the centroid counts only the top rows of the mask near the "
                              "last centroid (a forearm or a second skin-coloured thing at "
                              "the hand's depth no longer drags it; not in the thesis)")
+
+
+def add_vga_scale_option(parser) -> None:
+    """``--vga-scale``: the resolution of the VGA debug view's frame buffer
+    (:class:`soc.frame_buffer.FrameBuffer`), worded once for demo, generate and
+    resources; :func:`vga_scale_of` checks it."""
+    from soc.frame_buffer import VGA_SCALE
+    parser.add_argument("--vga-scale", type=int, default=VGA_SCALE, metavar="1|2",
+                        help="VGA debug view (thesis Table 22): 1 stores every pixel, 2 every "
+                             "second pixel of every second row, shown as 2x2 blocks (a "
+                             "quarter of the block RAM)")
+
+
+def vga_scale_of(args) -> int:
+    """``--vga-scale``, refused (``ValueError`` naming the option and its range)
+    unless in :data:`sim.model.vga.SCALE_RANGE`."""
+    from sim.model.validation import check_int
+    from sim.model.vga import SCALE_RANGE
+    return check_int("--vga-scale", args.vga_scale, *SCALE_RANGE)
 
 
 def load_rectification(args, width: int, height: int):

@@ -60,7 +60,8 @@ def add_arguments(p):
                         "(default: CPUs, at most 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     from stereogest.commands import (add_calibration_options, add_hand_tracking_option,
-                                     add_scene_options)
+                                     add_scene_options, add_vga_scale_option)
+    add_vga_scale_option(p)
     add_calibration_options(p)
     add_hand_tracking_option(p)
     add_scene_options(p)
@@ -78,13 +79,14 @@ def run(args) -> int:
     from sim.model.pipeline import PipelineParams
     from sim.model.validation import check_int
     from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
-    from stereogest.commands import OutputDir, load_rectification
+    from stereogest.commands import OutputDir, load_rectification, vga_scale_of
     from stereogest.pipeline_outputs import shipped_model_path
     from sw_hps.hmm import load_models
 
     # Every option checked before anything is created or rendered.
     if args.threads is not None:
         check_int("--threads", args.threads, 1, 64)
+    args.vga_scale = vga_scale_of(args)
     from stereogest.commands import scene_difficulties
     difficulties = scene_difficulties(args)
     if args.clip is not None and difficulties.any:
@@ -160,7 +162,7 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         trajectory, kept, extra, result = clip_end_to_end(
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
             model_progress=progress_printer(args.quiet), progress=say,
-            rectification=rectification)
+            rectification=rectification, vga_scale=args.vga_scale)
     pictures = out / "pipeline"
     for pattern in STALE:                # a reused folder: no old picture passes for new
         for old in pictures.glob(pattern):
@@ -196,7 +198,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               + ("equal to the golden model's" if result.fifo_matches_model else
                  f"DIFFERENT from the golden model's {len(result.expected)}"))
         mism = result.vga_mismatches
-        print(f"VGA frame ({args.stage}, {out / 'vga.png'}): "
+        print(f"VGA frame ({args.stage}, {'full' if args.vga_scale == 1 else 'half'} "
+              f"resolution, {out / 'vga.png'}): "
               + ("equal to the golden model's picture" if mism == 0 else
                  f"{mism} pixels differ from the golden model's picture"))
         print(f"UART TX pin: {uart_hex or 'nothing'}"
@@ -211,6 +214,7 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               + (f", NXT telegram {telegram}" if telegram else ""))
         report.update(fifo_matches_model=result.fifo_matches_model, vga_mismatches=mism,
                       uart_matches_telegram=result.uart_matches_telegram,
+                      vga_scale=args.vga_scale,
                       hardware_seconds=round(result.seconds, 1), cycles=result.cycles,
                       held_frames=extra, recognised_all=result.recognised_all,
                       uart=result.uart_bytes.hex(" "))

@@ -6,14 +6,15 @@ slaves on the lightweight HPS-to-FPGA bridge at 0x000 and 0x100), the Quartus
 flow script and a README with the steps. DIR must be new, empty, or a bundle
 written before (it is replaced as a whole). Quartus itself is not needed. With
 --calibration the pipeline rectifies both cameras with its maps; with
---hand-tracking its centroid tracks the hand."""
+--hand-tracking its centroid tracks the hand; --vga-scale sets the VGA debug
+view's resolution."""
 from __future__ import annotations
 
 import json
 import sys
 
 from stereogest.commands import (add_calibration_options, add_hand_tracking_option,
-                                 add_json_switch, frame_size_help)
+                                 add_json_switch, add_vga_scale_option, frame_size_help)
 
 NAME = "generate"
 HELP = "write the Quartus / Platform Designer bundle for the DE1-SoC"
@@ -27,13 +28,15 @@ def add_arguments(p):
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_calibration_options(p)
     add_hand_tracking_option(p)
+    add_vga_scale_option(p)
     add_json_switch(p, always=True)
 
 
 def run(args) -> int:
     from soc.generate import check_out_dir, generate
-    from stereogest.commands import check_output_dir, load_rectification
+    from stereogest.commands import check_output_dir, load_rectification, vga_scale_of
 
+    vga_scale = vga_scale_of(args)
     check_out_dir(args.out_dir)
     check_output_dir(args.out_dir)
     rectification = load_rectification(args, args.width, args.height)
@@ -43,7 +46,8 @@ def run(args) -> int:
             print(message, file=sys.stderr, flush=True)
 
     info = generate(args.out_dir, args.width, args.height, rectification=rectification,
-                    hand_tracking=args.hand_tracking, progress=progress)
+                    hand_tracking=args.hand_tracking, vga_scale=vga_scale,
+                    progress=progress)
     print(f"wrote {len(info.files)} files to {info.out_dir} in {info.seconds:.1f} s; "
           f"next: see {info.out_dir}/README.md (or run quartus_build.sh there)")
     print(json.dumps({"out": str(info.out_dir), "files": list(info.files),

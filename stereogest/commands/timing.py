@@ -40,7 +40,14 @@ def add_arguments(p):
                    help="disparity range D")
     p.add_argument("--opening-size", type=int, default=d.opening_size, metavar="W",
                    help="opening structuring element size W (odd)")
-    p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="nextpnr placer seed (>= 1)")
+    p.add_argument("--seed", type=int, action="append", default=None, metavar="N",
+                   help=f"nextpnr placer seed (>= 1); repeat it for several placements "
+                        f"(default {DEFAULT_SEED})")
+    p.add_argument("--seeds", default=None, metavar="N,N,...",
+                   help="placer seeds, comma-separated (with --seed: both lists)")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="placements at a time (1-16; each nextpnr run is single-threaded, "
+                        "so more than the cores only adds memory)")
     p.add_argument("--router", choices=("router1", "router2"), default="router2",
                    help="nextpnr router")
     p.add_argument("--timeout", type=float, default=None, metavar="S",
@@ -59,10 +66,13 @@ def add_arguments(p):
     add_hand_tracking_option(p)
 
 
-def table(results: list) -> str:
-    """The printed table: one row per block and clock."""
-    head = (f"{'block':<18} {'clock':<14} {'MHz req':>8} {'Fmax':>8} {'ok':>4} {'levels':>6} "
-            f"{'LUT4':>7} {'CCU2C':>6} {'FF':>7} {'EBR':>4} {'synth CPU s':>11} {'P&R CPU s':>9}")
+def table(results: list, minimum: dict | None = None) -> str:
+    """The printed table: one row per block, seed and clock; with ``minimum``
+    (:func:`min_fmax`) a last row per block and clock with the least Fmax of
+    its seeds."""
+    head = (f"{'block':<18} {'seed':>5} {'clock':<14} {'MHz req':>8} {'Fmax':>8} {'ok':>4} "
+            f"{'levels':>6} {'LUT4':>7} {'CCU2C':>6} {'FF':>7} {'EBR':>4} {'synth CPU s':>11} "
+            f"{'P&R CPU s':>9}")
     rows = [head, "-" * len(head)]
     for r in results:
         res = r["resources"]
@@ -71,17 +81,53 @@ def table(results: list) -> str:
             fmax = f"{c['fmax_mhz']:.1f}" if c["fmax_mhz"] is not None else "-"
             tail = (f"{res['lut4']:>7} {res['ccu2c']:>6} {res['ff']:>7} {res['ebr']:>4} "
                     f"{r['synth_cpu_s']:>11.1f} {r['pnr_cpu_s']:>9.1f}") if k == 0 else ""
-            rows.append(f"{(r['block'] if k == 0 else ''):<18} {clock:<14} "
+            rows.append(f"{(r['block'] if k == 0 else ''):<18} "
+                        f"{(r['seed'] if k == 0 else ''):>5} {clock:<14} "
                         f"{c['constraint_mhz']:>8.1f} {fmax:>8} "
                         f"{'yes' if c['passed'] else 'NO':>4} "
                         f"{path.get('logic_levels', '-'):>6} {tail}")
+    for block, clocks in (minimum or {}).items():
+        for k, (clock, fmax) in enumerate(clocks.items()):
+            rows.append(f"{(block if k == 0 else ''):<18} {'min':>5} {clock:<14} {'':>8} "
+                        f"{fmax if fmax is not None else '-':>8}")
     return "\n".join(rows)
+
+
+def min_fmax(runs: list) -> dict:
+    """Per block and clock, the least Fmax over every seed's run (None for a
+    clock without register-to-register paths)."""
+    out = {}
+    for run in runs:
+        for r in run["blocks"]:
+            for clock, c in r["clocks"].items():
+                seen = out.setdefault(r["block"], {}).setdefault(clock, c["fmax_mhz"])
+                if c["fmax_mhz"] is not None and (seen is None or c["fmax_mhz"] < seen):
+                    out[r["block"]][clock] = c["fmax_mhz"]
+    return out
+
+
+def parse_seeds(seed, seeds) -> list:
+    """The placer seeds of ``--seed`` (repeated) and ``--seeds N,N``, in order,
+    each once; ValueError naming the option otherwise."""
+    from hdl._util import check_int
+    chosen = [check_int("--seed", n, 1, 2 ** 31 - 1) for n in seed or []]
+    if seeds is not None:
+        for word in str(seeds).split(","):
+            try:
+                value = int(word.strip())
+            except ValueError:
+                raise ValueError(f"--seeds must be integers in [1, {2 ** 31 - 1}] separated "
+                                 f"by commas, got {seeds!r}") from None
+            chosen.append(check_int("--seeds", value, 1, 2 ** 31 - 1))
+    if len(set(chosen)) != len(chosen):
+        raise ValueError(f"--seeds/--seed name a seed twice: {', '.join(map(str, chosen))}")
+    return chosen or [DEFAULT_SEED]
 
 
 def run(args) -> int:
     from hdl._util import check_int
-    from hdl.place_route import BLOCKS, CI_BLOCKS, DEVICE, find_nextpnr, place_and_route, \
-        timing_design
+    from hdl.place_route import BLOCKS, CI_BLOCKS, DEVICE, find_nextpnr, \
+        place_and_route_seeds, timing_design
     from hdl.synthesis import find_yosys
     from sim.model.pipeline import PipelineParams, hand_tracking_for
     from soc.clocks import PCLK_HZ, SYNC_HZ
@@ -107,7 +153,8 @@ def run(args) -> int:
         raise ValueError(text) from None
     if args.hand_tracking:      # after the checks: the width's range is the pipeline's
         params = dataclasses.replace(params, **hand_tracking_for(args.width))
-    check_int("--seed", args.seed, 1, 2 ** 31 - 1)
+    seeds = parse_seeds(args.seed, args.seeds)
+    check_int("--jobs", args.jobs, 1, 16)
     if args.timeout is not None and not 1 <= args.timeout <= 86_400:
         raise ValueError(f"--timeout must be in [1, 86400] seconds, got {args.timeout:g}")
     output_option = "--output"
@@ -127,28 +174,38 @@ def run(args) -> int:
         if not args.quiet:
             print(text, file=sys.stderr, flush=True)
 
-    results = []
+    runs = {seed: [] for seed in seeds}
     start = time.perf_counter()
     for block in blocks:
         dut, clocks, shell = timing_design(block, args.width, args.height, params,
                                            sync_hz=SYNC_HZ, pclk_hz=PCLK_HZ,
                                            rectification=rectification)
-        result = place_and_route(dut, block, clocks=clocks, shell=shell, seed=args.seed,
-                                 router=args.router, timeout=args.timeout,
-                                 keep=keep / block if keep else None, progress=say)
-        results.append(result)
-        clk = result["clocks"]
-        say(f"{block}: " + ", ".join(
-            f"{c} {v['fmax_mhz'] if v['fmax_mhz'] is not None else '-'} MHz "
-            f"({'pass' if v['passed'] else 'FAIL'} at {v['constraint_mhz']:g})"
-            for c, v in clk.items()))
+        results = place_and_route_seeds(dut, block, clocks=clocks, shell=shell, seeds=seeds,
+                                        jobs=args.jobs, router=args.router,
+                                        timeout=args.timeout,
+                                        keep=keep / block if keep else None, progress=say)
+        for result in results:
+            runs[result["seed"]].append(result)
+            say(f"{block}, seed {result['seed']}: " + ", ".join(
+                f"{c} {v['fmax_mhz'] if v['fmax_mhz'] is not None else '-'} MHz "
+                f"({'pass' if v['passed'] else 'FAIL'} at {v['constraint_mhz']:g})"
+                for c, v in result["clocks"].items()))
+    per_seed = [{"seed": seed, "blocks": blocks_run,
+                 "passed": all(r["passed"] for r in blocks_run)}
+                for seed, blocks_run in runs.items()]
+    minimum = min_fmax(per_seed)
     report = {
         "device": DEVICE["name"], "width": args.width, "height": args.height,
-        "params": params.as_dict(), "seed": args.seed, "router": args.router,
-        "blocks": results, "passed": all(r["passed"] for r in results),
+        "params": params.as_dict(), "calibration": args.calibration,
+        "seeds": seeds, "router": args.router,
+        "runs": per_seed, "min_fmax_mhz": minimum,
+        "passed": all(run["passed"] for run in per_seed),
         "seconds": round(time.perf_counter() - start, 1),
     }
-    print(table(results))
+    if len(seeds) == 1:             # the single-seed report of earlier versions
+        report["seed"], report["blocks"] = seeds[0], per_seed[0]["blocks"]
+    print(table([r for run in per_seed for r in run["blocks"]],
+                minimum if len(seeds) > 1 else None))
     if json_out is not None:
         from sim.atomic import write_text_atomic
         write_text_atomic(json_out, json.dumps(report, indent=2) + "\n")
