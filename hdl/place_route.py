@@ -489,7 +489,8 @@ def _net_arrivals(net: dict) -> list:
 def _reset_nets(report: dict, log: str, domains: list) -> dict:
     """Per clock domain, the reset tree :class:`BoardClocks` drives from its
     synchroniser (net ``<domain>_reset_tree`` behind a global buffer, else
-    ``<domain>_reset_synced``): net name, fanout (flip-flops whose LSR it
+    ``<domain>_reset_synced``; ``board_<domain>_rst`` for a domain the design
+    declares itself): net name, fanout (flip-flops whose LSR it
     drives directly; yosys folds some resets into logic first), whether
     nextpnr routed it on a global network, and the latest arrival at a sink
     (ns after the synchroniser's clock edge)."""
@@ -497,7 +498,10 @@ def _reset_nets(report: dict, log: str, domains: list) -> dict:
     found = {}
     for net in report.get("detailed_net_timings", []):
         name = str(net.get("net", ""))
-        match = re.fullmatch(r"(\w+)_reset_(tree|synced)(\$.*)?", name)
+        # (a domain the design declares itself is board_<domain> here, and
+        # yosys may keep that domain's reset name for the net)
+        match = (re.fullmatch(r"(\w+)_reset_(tree|synced)(\$.*)?", name)
+                 or re.fullmatch(r"board_(\w+)_(rst)(\$.*)?", name))
         if match is None or match.group(1) not in domains:
             continue
         arrivals = _net_arrivals(net)

@@ -11,8 +11,8 @@ from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.place_route import CI_BLOCKS, CLOCK_PINS, MAX_IO_BITS, _lpf, place_and_route, \
-    place_and_route_seeds
+from hdl.place_route import CI_BLOCKS, CLOCK_PINS, MAX_IO_BITS, _lpf, _reset_nets, \
+    place_and_route, place_and_route_seeds
 from stereogest.cli import main
 
 
@@ -54,6 +54,27 @@ def test_clocks_and_reset_as_on_the_board(ci_report):
         reset = block["reset"]["sync"]
         assert reset["global"] and reset["net"] == "sync_reset_tree"
         assert reset["fanout"] > 10 and 0 < reset["worst_arrival_ns"] < 10
+
+
+def test_reset_nets_by_their_names():
+    """The reset trees of a report: the synchroniser's own nets, and a domain the
+    design declares itself (PipelineTop's cameras), whose net keeps the board
+    domain's reset name; on a global only where nextpnr routed it on one."""
+    def net(name, *arrivals):
+        return {"net": name, "endpoints": [{"delay": [a - 0.1, a]} for a in arrivals]}
+    report = {"detailed_net_timings": [
+        net("sync_reset_synced", 0.5), net("sync_reset_tree", 1.0, 1.5, 1.2),
+        net("board_cam_left_rst", 0.7, 0.9), net("cam_right_reset_synced", 2.0),
+        net("other_rst", 3.0), net("board_vga_rst", 1.0)]}
+    log = ("Info:     routing clock net sync_reset_tree using global 3\n"
+           "Info:     routing clock net board_cam_left_rst using global 4\n")
+    assert _reset_nets(report, log, ["sync", "cam_left", "cam_right"]) == {
+        "sync": {"net": "sync_reset_tree", "fanout": 3, "global": True,
+                 "worst_arrival_ns": 1.5},
+        "cam_left": {"net": "board_cam_left_rst", "fanout": 2, "global": True,
+                     "worst_arrival_ns": 0.9},
+        "cam_right": {"net": "cam_right_reset_synced", "fanout": 1, "global": False,
+                      "worst_arrival_ns": 2.0}}
 
 
 def test_clock_pins_are_located():

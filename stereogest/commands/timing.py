@@ -189,7 +189,9 @@ def run(args) -> int:
             say(f"{block}, seed {result['seed']}: " + ", ".join(
                 f"{c} {v['fmax_mhz'] if v['fmax_mhz'] is not None else '-'} MHz "
                 f"({'pass' if v['passed'] else 'FAIL'} at {v['constraint_mhz']:g})"
-                for c, v in result["clocks"].items()))
+                for c, v in result["clocks"].items()) + "; reset " + ", ".join(
+                f"{d} {r['fanout']} sinks{' on a global' if r['global'] else ''} "
+                f"(latest {r['worst_arrival_ns']} ns)" for d, r in result["reset"].items()))
     per_seed = [{"seed": seed, "blocks": blocks_run,
                  "passed": all(r["passed"] for r in blocks_run)}
                 for seed, blocks_run in runs.items()]
