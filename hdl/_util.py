@@ -9,6 +9,7 @@ from amaranth.hdl import Signal
 from sim.model.validation import check_int, check_odd_window
 
 __all__ = ["check_int", "check_odd_window", "check_geometry", "delay", "replicate",
+           "register_input",
            "KEEP_REGISTER",
            "bits_for", "WIDTH_RANGE", "HEIGHT_RANGE", "PIXEL_BITS_RANGE"]
 
@@ -57,3 +58,14 @@ def replicate(m, value, copies: int, name: str = "rep", init: int = 0):
         m.d.sync += reg.eq(value)
         regs.append(reg)
     return regs
+
+
+def register_input(m, i_stream, copies: int, name: str):
+    """An input register of an always-ready stream: its payload, registered as
+    ``name``, and ``copies`` registered copies of its ``valid``
+    (:func:`replicate`, named ``beat_<n>``), the beats of that registered
+    payload. A stage whose beat steers many registers gives each group its
+    own copy. Returns ``(payload, beats)``."""
+    payload = Signal(i_stream.payload.shape(), name=name)
+    m.d.sync += payload.eq(i_stream.payload)
+    return payload, replicate(m, i_stream.valid, copies, "beat")

@@ -14,8 +14,8 @@ from amaranth.lib.wiring import In, Out
 from sim.model.census import CENSUS_WINDOW_RANGE, census_offsets
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window
-from .stage import StageTiming, window_memory_bits
-from .window import WindowGenerator, window_timing
+from .stage import StageTiming
+from .window import WindowGenerator, window_memory_bits, window_timing
 
 __all__ = ["SparseCensus", "census_timing", "census_memory_bits"]
 

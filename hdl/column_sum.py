@@ -26,12 +26,20 @@ from ._util import bits_for, check_geometry, check_int, check_odd_window, delay,
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
-__all__ = ["ColumnSum", "column_sum_timing"]
+__all__ = ["ColumnSum", "column_sum_timing", "column_sum_memory_bits"]
 
 
 def column_sum_timing(width: int, hamming_window: int) -> StageTiming:
     """Look-ahead r * width rows (r = Wh // 2) and :attr:`ColumnSum.cycles`."""
     return StageTiming(lag=(hamming_window // 2) * width, cycles=ColumnSum.cycles)
+
+
+def column_sum_memory_bits(width: int, hamming_window: int, max_disparity: int,
+                           max_term: int) -> int:
+    """Bits of the memories of a :class:`ColumnSum` (its ``memory_bits``):
+    ``width - d`` column sums for disparity d."""
+    return (sum(width - d for d in range(max_disparity))
+            * bits_for(hamming_window * max_term))
 
 
 class ColumnSum(wiring.Component):
@@ -83,7 +91,8 @@ class ColumnSum(wiring.Component):
         self.sum_bits = bits_for(self.hamming_window * self.max_term)
         self.radius = self.hamming_window // 2
         self.lag = column_sum_timing(self.width, self.hamming_window).lag
-        self.memory_bits = sum(self.width - d for d in range(self.max_disparity)) * self.sum_bits
+        self.memory_bits = column_sum_memory_bits(self.width, self.hamming_window,
+                                                  self.max_disparity, self.max_term)
         nd = self.max_disparity
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({

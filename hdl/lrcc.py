@@ -16,7 +16,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import bits_for, check_geometry, check_int, delay, replicate
+from ._util import bits_for, check_geometry, check_int, delay, register_input
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -82,9 +82,7 @@ class LeftRightCheck(wiring.Component):
         nd, db = self.max_disparity, self.disparity_bits
         # An input register; the beat once per history (one net for both
         # histories spanned them)
-        p = Signal(self.i_stream.payload.shape(), name="pair")
-        m.d.sync += p.eq(self.i_stream.payload)
-        beat, l2r_beat, r2l_beat = replicate(m, self.i_stream.valid, 3, "beat")
+        p, (beat, l2r_beat, r2l_beat) = register_input(m, self.i_stream, 3, "pair")
         pos = RasterPosition(self.width, self.height, self.lag, "pix").attach(m, beat, p.first)
 
         l2r_hist = [p.l2r]

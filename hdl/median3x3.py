@@ -14,9 +14,9 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, delay
-from .stage import StageTiming, window_memory_bits
+from .stage import StageTiming
 from .streams import pixel_signature
-from .window import WindowGenerator, window_timing
+from .window import WindowGenerator, window_memory_bits, window_timing
 
 __all__ = ["Median3x3", "median_timing", "median_memory_bits"]
 

@@ -19,9 +19,9 @@ from amaranth.lib.wiring import In, Out
 from sim.model.morphology import resolve_element
 
 from ._util import check_geometry, delay
-from .stage import StageTiming, window_memory_bits
+from .stage import StageTiming
 from .streams import pixel_signature
-from .window import WindowGenerator, window_timing
+from .window import WindowGenerator, window_memory_bits, window_timing
 
 __all__ = ["BinaryMorphology", "FANIN", "morphology_timing", "morphology_memory_bits"]
 

@@ -22,7 +22,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import bits_for, check_geometry, check_int, delay, replicate
+from ._util import bits_for, check_geometry, check_int, delay, register_input
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -85,10 +85,8 @@ class DisparitySelectors(wiring.Component):
         # An input register, and the beat once per CELLS_PER_BEAT cells of the
         # R2L chain (and once for the rest): no single beat net steers the
         # whole chain.
-        p = Signal(self.i_stream.payload.shape(), name="costs")
-        m.d.sync += p.eq(self.i_stream.payload)
-        beat, *cell_beats = replicate(m, self.i_stream.valid,
-                                      1 + -(-nd // self.CELLS_PER_BEAT), "beat")
+        p, (beat, *cell_beats) = register_input(m, self.i_stream,
+                                                1 + -(-nd // self.CELLS_PER_BEAT), "costs")
         pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # L2R: pipelined tree; a pair's second (larger d) wins only if strictly cheaper.

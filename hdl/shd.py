@@ -19,12 +19,13 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
-from .column_sum import ColumnSum, column_sum_timing
+from ._util import check_geometry, check_int, check_odd_window, delay, register_input
+from .column_sum import ColumnSum, column_sum_memory_bits, column_sum_timing
 from .hamming import HammingDistances, hamming_cycles
 from .raster_position import RasterPosition
 from .stage import StageTiming
-from .window_sum import WindowSum, window_sum_timing
+from .window_sum import WindowSum, window_sum_bits, window_sum_memory_bits, \
+    window_sum_timing
 
 __all__ = ["SumOfHammingDistances", "shd_timing", "shd_cost_bits", "shd_memory_bits",
            "shd_stage", "SHD_STAGES"]
@@ -47,18 +48,17 @@ def shd_timing(width: int, census_bits: int, hamming_window: int) -> StageTiming
 def shd_cost_bits(census_bits: int, hamming_window: int) -> int:
     """Bits of a cost: a window sum of ``Wh`` column sums of ``Wh`` distances
     (the ``sum_bits`` of its :class:`~hdl.window_sum.WindowSum`)."""
-    return bits_for(hamming_window * hamming_window * census_bits)
+    return window_sum_bits(hamming_window, max_term=hamming_window * census_bits)
 
 
 def shd_memory_bits(width: int, census_bits: int, hamming_window: int,
                     max_disparity: int) -> dict:
-    """The ``memory_bits`` of its :class:`~hdl.column_sum.ColumnSum` (``width - d``
-    column sums for disparity d) and of its :class:`~hdl.window_sum.WindowSum`
-    (a ring of the power of two >= Wh words of D column sums; none for Wh = 1)."""
-    column_bits = bits_for(hamming_window * census_bits)
-    ring = 1 << (hamming_window - 1).bit_length() if hamming_window >= 3 else 0
-    return {"column sums": sum(width - d for d in range(max_disparity)) * column_bits,
-            "window-sum ring buffer": ring * max_disparity * column_bits}
+    """The ``memory_bits`` of its :class:`~hdl.column_sum.ColumnSum` and of its
+    :class:`~hdl.window_sum.WindowSum`."""
+    return {"column sums": column_sum_memory_bits(width, hamming_window, max_disparity,
+                                                  max_term=census_bits),
+            "window-sum ring buffer": window_sum_memory_bits(
+                hamming_window, max_disparity, max_term=hamming_window * census_bits)}
 
 
 def shd_stage(name: str, width: int, height: int, *, census_bits: int, hamming_window: int,
@@ -147,10 +147,8 @@ class SumOfHammingDistances(wiring.Component):
         # An input register, and the beat once per BITS_PER_BEAT delay lines of a
         # window (and once for the rest): no single beat net steers all
         # 2 x (D - 1) x bits registers of the right codes' delay lines.
-        p = Signal(self.i_stream.payload.shape(), name="codes")
-        m.d.sync += p.eq(self.i_stream.payload)
         groups = -(-cb // self.BITS_PER_BEAT)
-        beat, *line_beats = replicate(m, self.i_stream.valid, 1 + 2 * groups, "beat")
+        p, (beat, *line_beats) = register_input(m, self.i_stream, 1 + 2 * groups, "codes")
         pos = RasterPosition(self.width, self.height, 0, "pix").attach(m, beat, p.first)
 
         # Delay lines of the right codes in bit-plane order (what HammingDistances

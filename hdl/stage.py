@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import NamedTuple, Protocol, runtime_checkable
 
-__all__ = ["PixelStage", "StageTiming", "window_memory_bits"]
+__all__ = ["PixelStage", "StageTiming"]
 
 
 class StageTiming(NamedTuple):
@@ -14,17 +14,6 @@ class StageTiming(NamedTuple):
     the component itself uses: the figures without building hardware."""
     lag: int
     cycles: int
-
-
-def window_memory_bits(width: int, window: int, pixel_bits: int, separation: int = 0) -> int:
-    """Bits of the row buffers of a :class:`~hdl.window.WindowGenerator` with
-    these parameters (its ``memory_bits``), for the stages built around one:
-    a line of ``width - window`` pixels behind each row a window uses, of
-    ``width`` behind any other row."""
-    used = set(range(window)) | set(range(separation, separation + window))
-    rows = window - 1 + separation
-    short = sum(1 for k in range(1, rows + 1) if k - 1 in used)
-    return (short * (width - window) + (rows - short) * width) * pixel_bits
 
 
 @runtime_checkable

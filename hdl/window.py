@@ -23,9 +23,9 @@ from ._util import PIXEL_BITS_RANGE, check_geometry, check_int, check_odd_window
     replicate
 from .raster_position import RasterPosition
 from .row_buffer import RowBuffer
-from .stage import StageTiming, window_memory_bits
+from .stage import StageTiming
 
-__all__ = ["WindowGenerator", "window_timing"]
+__all__ = ["WindowGenerator", "window_timing", "window_memory_bits"]
 
 
 def window_timing(width: int, window: int) -> StageTiming:
@@ -33,6 +33,17 @@ def window_timing(width: int, window: int) -> StageTiming:
     columns) and cycles (the row buffer's read, one register)."""
     radius = window // 2
     return StageTiming(lag=radius * width + radius, cycles=RowBuffer.cycles + 1)
+
+
+def window_memory_bits(width: int, window: int, pixel_bits: int, separation: int = 0) -> int:
+    """Bits of the row buffers of a :class:`~hdl.window.WindowGenerator` with
+    these parameters (its ``memory_bits``), for the stages built around one:
+    a line of ``width - window`` pixels behind each row a window uses, of
+    ``width`` behind any other row."""
+    used = set(range(window)) | set(range(separation, separation + window))
+    rows = window - 1 + separation
+    short = sum(1 for k in range(1, rows + 1) if k - 1 in used)
+    return (short * (width - window) + (rows - short) * width) * pixel_bits
 
 
 class WindowGenerator(wiring.Component):

@@ -23,12 +23,29 @@ from .stage import StageTiming
 #: and of the row flags.
 FLAG_GROUP = 2
 
-__all__ = ["WindowSum", "window_sum_timing"]
+__all__ = ["WindowSum", "window_sum_timing", "window_sum_ring_depth", "window_sum_memory_bits",
+           "window_sum_bits"]
 
 
 def window_sum_timing(hamming_window: int) -> StageTiming:
     """Look-ahead r = Wh // 2 columns and 3 cycles."""
     return StageTiming(lag=hamming_window // 2, cycles=WindowSum.cycles)
+
+
+def window_sum_ring_depth(hamming_window: int) -> int:
+    """Words of the ring buffer of column-sum vectors: the power of two >= Wh
+    (0 for Wh = 1, a register)."""
+    return 1 << (hamming_window - 1).bit_length() if hamming_window >= 3 else 0
+
+
+def window_sum_bits(hamming_window: int, max_term: int) -> int:
+    """Bits of a window sum: ``Wh`` column sums of at most ``max_term``."""
+    return bits_for(hamming_window * max_term)
+
+
+def window_sum_memory_bits(hamming_window: int, max_disparity: int, max_term: int) -> int:
+    """Bits of the ring buffer of a :class:`WindowSum` (its ``memory_bits``)."""
+    return window_sum_ring_depth(hamming_window) * max_disparity * bits_for(max_term)
 
 
 class WindowSum(wiring.Component):
@@ -69,14 +86,14 @@ class WindowSum(wiring.Component):
         self.max_disparity = check_int("max_disparity", max_disparity, 1, 256)
         self.max_term = check_int("max_term", max_term, 1, 4096)
         self.term_bits = bits_for(self.max_term)
-        self.sum_bits = bits_for(self.hamming_window * self.max_term)
+        self.sum_bits = window_sum_bits(self.hamming_window, self.max_term)
         self.radius = self.hamming_window // 2
         self.lag = window_sum_timing(self.hamming_window).lag
         #: words of the ring buffer of leaving column sums (0: a register, Wh = 1)
-        self.ring_depth = 1 << (self.hamming_window - 1).bit_length() \
-            if self.hamming_window >= 3 else 0
+        self.ring_depth = window_sum_ring_depth(self.hamming_window)
         #: bits of that ring buffer
-        self.memory_bits = self.ring_depth * max_disparity * self.term_bits
+        self.memory_bits = window_sum_memory_bits(self.hamming_window, self.max_disparity,
+                                                  self.max_term)
         nd = self.max_disparity
         super().__init__({
             "i_stream": In(stream.Signature(data.StructLayout({

@@ -16,7 +16,8 @@ from hdl.rectify import Rectifier, rectify_timing
 from hdl.segmentation import HandSegmentation
 from hdl.selectors import DisparitySelectors, selectors_timing
 from hdl.shd import SumOfHammingDistances, shd_timing
-from hdl.stage import PixelStage, StageTiming, window_memory_bits
+from hdl.stage import PixelStage, StageTiming
+from hdl.window import window_memory_bits
 from hdl.stereo_matcher import StereoMatcher, matcher_timing
 from hdl.window import WindowGenerator, window_timing
 from hdl.window_sum import WindowSum, window_sum_timing

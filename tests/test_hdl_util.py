@@ -5,7 +5,7 @@ from amaranth.hdl import Module, Signal
 from amaranth.sim import Simulator
 
 from hdl._util import (HEIGHT_RANGE, KEEP_REGISTER, WIDTH_RANGE, bits_for, check_geometry,
-                       delay, replicate)
+                       delay, register_input, replicate)
 
 
 def test_bits_for():
@@ -44,3 +44,32 @@ def test_delay_and_replicate_are_registers():
     sim.run()
     assert [s[0] for s in seen] == [0, 0, 0, 1, 2, 3, 4, 5]
     assert [s[1] for s in seen] == [s[2] for s in seen] == list(range(8))
+
+
+def test_register_input_delays_payload_and_beat_alike():
+    """The registered payload and each copy of the beat describe the same beat,
+    one cycle after the stream's."""
+    from amaranth.lib import data, stream
+    m = Module()
+    port = stream.Signature(data.StructLayout({"first": 1, "pixel": 8}),
+                            always_ready=True).flip().create()
+    payload, beats = register_input(m, port, 3, "pixels")
+    assert len(beats) == 3 and all(b.attrs == KEEP_REGISTER for b in beats)
+    assert payload.shape() == port.payload.shape()
+    seen = []
+
+    async def testbench(ctx):
+        for k in range(6):
+            ctx.set(port.valid, k % 2)
+            ctx.set(port.payload.pixel, 10 + k)
+            await ctx.tick()
+            # the inputs move on: what is read now was registered at the edge
+            ctx.set(port.valid, 1 - k % 2)
+            ctx.set(port.payload.pixel, 0)
+            seen.append((ctx.get(payload.pixel), *(ctx.get(b) for b in beats)))
+
+    sim = Simulator(m)
+    sim.add_clock(1e-8)
+    sim.add_testbench(testbench)
+    sim.run()
+    assert seen == [(10 + k, *[k % 2] * 3) for k in range(6)]
