@@ -400,6 +400,10 @@ def _output_cases():
     yield case("timing", "--block", "median3x3", "-o", f"{OUT}/t.json", "--json", f"{OUT}/u.json",
                match="older spelling")
     yield case("timing", "--block", "median3x3", "--keep", f"{IN}/afile", match="--keep: ")
+    yield case("chessboards", "--count", "1", "-o", f"{OUT}/cb", "--truth", f"{OUT}/cb",
+               match="is the --output folder; name a file")
+    yield case("chessboards", "--count", "1", "-o", f"{OUT}/cb", "--truth", f"{IN}/adir",
+               match="--truth: ")
     yield case("generate", "-o", f"{IN}", match="--output")      # not empty, not a bundle
 
 

@@ -8,6 +8,7 @@ and the README's figures use them."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from stereogest.commands import DEFAULT_SEED, add_json_switch
 
@@ -38,6 +39,8 @@ def run(args) -> int:
 
     count = check_int("--count", args.count, 1, 100)
     seed = check_int("--seed", args.seed, 0, 2**32 - 1)
+    if args.truth is not None and Path(args.truth).resolve() == Path(args.output).resolve():
+        raise ValueError(f"--truth: {args.truth} is the --output folder; name a file")
     truth = None if args.truth is None else check_output_file(args.truth, "--truth")
     with OutputDir(args.output, stale=("left_*.png", "right_*.png")) as out:
         pairs = render_chessboard_pairs(StereoRig(), count, seed=seed)
