@@ -31,11 +31,12 @@ def check_geometry(width, height, min_width: int = WIDTH_RANGE[0]):
     return width, height
 
 
-def delay(m, value, cycles: int, name: str = "dly"):
-    """``value`` delayed by ``cycles`` free-running registers (0 = the value itself)."""
+def delay(m, value, cycles: int, name: str = "dly", *, reset_less: bool = False):
+    """``value`` delayed by ``cycles`` free-running registers (0 = the value itself);
+    ``reset_less`` for data that a delayed valid qualifies."""
     out = value
     for i in range(cycles):
-        reg = Signal(out.shape(), name=f"{name}_{i}")
+        reg = Signal(out.shape(), name=f"{name}_{i}", reset_less=reset_less)
         m.d.sync += reg.eq(out)
         out = reg
     return out

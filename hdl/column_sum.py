@@ -120,11 +120,11 @@ class ColumnSum(wiring.Component):
         # once per group of disparities.
         deltas = []
         for d in range(nd):
-            delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}")
+            delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}", reset_less=True)
             m.d.sync += delta.eq(Mux(enter_ok, p.enter[d], 0) - Mux(leave_ok, p.leave[d], 0))
             deltas.append(delta)
         # (waiting for the read as one word: a simulator copies it in one go)
-        waited = delay(m, Cat(*deltas), 2, "deltas")
+        waited = delay(m, Cat(*deltas), 2, "deltas", reset_less=True)
         db = self.term_bits + 1
         deltas = [waited[d * db:(d + 1) * db].as_signed() for d in range(nd)]
         beats = replicate(m, beat, -(-nd // self.GROUP), "beat")
@@ -156,13 +156,13 @@ class ColumnSum(wiring.Component):
             else:
                 m.d.comb += addr.eq(x_1)
             m.d.comb += [rd.addr.eq(addr), rd.en.eq(1)]
-            stored = Signal(cb, name=f"stored_{d}")
+            stored = Signal(cb, name=f"stored_{d}", reset_less=True)
             m.d.sync += stored.eq(rd.data)
             partner_4 = partners_4[d] if d else 1
-            s_new = Signal(cb, name=f"csum_{d}")
+            s_new = Signal(cb, name=f"csum_{d}", reset_less=True)
             m.d.sync += s_new.eq(Mux(restart_3, 0, stored) + deltas[d])
             m.d.comb += [
-                wr.addr.eq(delay(m, addr, 3, f"waddr_{d}")),
+                wr.addr.eq(delay(m, addr, 3, f"waddr_{d}", reset_less=True)),
                 wr.en.eq(valid_4 & partner_4),
                 wr.data.eq(s_new),
                 self.o_stream.payload.csum[d].eq(Mux(partner_4, s_new, no_match_4) if d else s_new),

@@ -105,7 +105,7 @@ class HammingDistances(wiring.Component):
         def register(number, name):
             regs = []
             for i, plane in enumerate(number):
-                reg = Signal(n, name=f"{name}_b{i}")
+                reg = Signal(n, name=f"{name}_b{i}", reset_less=True)
                 m.d.sync += reg.eq(plane)
                 regs.append(reg)
             return regs

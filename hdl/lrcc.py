@@ -88,8 +88,8 @@ class LeftRightCheck(wiring.Component):
         l2r_hist = [p.l2r]
         r2l_hist = [p.r2l]
         for k in range(1, nd):
-            a = Signal(db, name=f"l2r_dl{k}")
-            b = Signal(db, name=f"r2l_dl{k}")
+            a = Signal(db, name=f"l2r_dl{k}", reset_less=True)
+            b = Signal(db, name=f"r2l_dl{k}", reset_less=True)
             with m.If(l2r_beat):
                 m.d.sync += a.eq(l2r_hist[k - 1])
             with m.If(r2l_beat):

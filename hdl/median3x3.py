@@ -70,7 +70,7 @@ class Median3x3(wiring.Component):
         pb = self.pixel_bits
         values = [wp.v1[i][j] for i in range(3) for j in range(3)]
         for layer in range(TAPS):
-            nxt = [Signal(pb, name=f"sort_l{layer}_{k}") for k in range(TAPS)]
+            nxt = [Signal(pb, name=f"sort_l{layer}_{k}", reset_less=True) for k in range(TAPS)]
             for k in range(TAPS):
                 m.d.sync += nxt[k].eq(values[k])
             for low in range(layer % 2, TAPS - 1, 2):

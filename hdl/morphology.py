@@ -110,14 +110,14 @@ class BinaryMorphology(wiring.Component):
         values = []
         for i, j in np.argwhere(self.element):
             i, j = int(i), int(j)
-            leaf = Signal(name=f"leaf_{i}_{j}")
+            leaf = Signal(name=f"leaf_{i}_{j}", reset_less=True)
             outside = ~(wp.rows1[i] & wp.cols[j])
             m.d.sync += leaf.eq((wp.v1[i][j] ^ self.dilate) | outside)
             values.append(leaf)
         for level in range(self.tree_levels):
             nxt = []
             for g in range(0, len(values), FANIN):
-                node = Signal(name=f"and_l{level}_{g // FANIN}")
+                node = Signal(name=f"and_l{level}_{g // FANIN}", reset_less=True)
                 m.d.sync += node.eq(Cat(*values[g:g + FANIN]).all())
                 nxt.append(node)
             values = nxt

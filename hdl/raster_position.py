@@ -69,13 +69,19 @@ class RasterPosition:
         self._m, self._beat, self._first = m, beat, first
         return self
 
-    def registered(self, cond, name: str = "flag", shape=1):
+    def registered(self, cond, name: str = "flag", shape=1, *, first=None, attrs=None):
         """``cond(x, y)`` of the current position from a register: evaluated for
         the next position on each beat (and for the first position at the
         frame start), so only a multiplexer lies between the register and the
-        user. ``cond`` must also accept Python ints."""
+        user. ``cond`` must also accept Python ints.
+
+        A flag that steers many registers is built once per group, each with
+        ``attrs`` (:data:`hdl._util.KEEP_REGISTER`) and its own copy of the
+        frame-start ``first`` (equal to the one given to :meth:`attach`), so no
+        single net reaches them all."""
         m = self._m
-        reg = Signal(shape, name=f"{self.name}_{name}")
+        reg = Signal(shape, name=f"{self.name}_{name}", attrs=attrs or {})
+        first = self._first if first is None else first
 
         def const(v):
             return int(bool(v)) if shape == 1 else int(v) % (1 << len(reg))
@@ -92,7 +98,7 @@ class RasterPosition:
         nxt = Mux(self._wrap, Mux(self._sat, stay, next_row), same_row)
         with m.If(self._beat):
             m.d.sync += reg.eq(Mux(self._first, const(cond(nx0, ny0)), nxt))
-        return Mux(self._first, const(cond(x0, y0)), reg)
+        return Mux(first, const(cond(x0, y0)), reg)
 
     def thermometer(self, count: int, name: str = "thermo"):
         """``count`` bits, bit k = (x >= k) for the current position, from a

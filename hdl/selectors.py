@@ -101,8 +101,8 @@ class DisparitySelectors(wiring.Component):
                     cost, disp = Mux(take, cb_, ca), Mux(take, db_, da)
                 else:
                     cost, disp = nodes[k]
-                rc = Signal(cb, name=f"l2r_c{level}_{k // 2}")
-                rd = Signal(db, name=f"l2r_d{level}_{k // 2}")
+                rc = Signal(cb, name=f"l2r_c{level}_{k // 2}", reset_less=True)
+                rd = Signal(db, name=f"l2r_d{level}_{k // 2}", reset_less=True)
                 m.d.sync += [rc.eq(cost), rd.eq(disp)]
                 nxt.append((rc, rd))
             nodes = nxt
@@ -110,8 +110,8 @@ class DisparitySelectors(wiring.Component):
         l2r = nodes[0][1]
 
         # R2L: chain of best-of cells, advancing on beats.
-        chain_c = [Signal(cb, name=f"r2l_c{k}") for k in range(nd)]
-        chain_d = [Signal(db, name=f"r2l_d{k}") for k in range(nd)]
+        chain_c = [Signal(cb, name=f"r2l_c{k}", reset_less=True) for k in range(nd)]
+        chain_d = [Signal(db, name=f"r2l_d{k}", reset_less=True) for k in range(nd)]
         same_rows = pos.thermometer(nd, "same_row")  # bit k: x >= k
         with m.If(cell_beats[0]):
             m.d.sync += [chain_c[0].eq(p.cost[0]), chain_d[0].eq(0)]

@@ -167,7 +167,7 @@ class SumOfHammingDistances(wiring.Component):
             for j in range(cb):
                 plane = right[j]
                 if nd > 1:
-                    line = Signal(nd - 1, name=f"right{win}_bit{j}")
+                    line = Signal(nd - 1, name=f"right{win}_bit{j}", reset_less=True)
                     with m.If(line_beats[(win - 1) * groups + j // self.BITS_PER_BEAT]):
                         m.d.sync += line.eq(Cat(right[j], line[:-1]))
                     plane = Cat(right[j], line)

@@ -1,8 +1,8 @@
 """Stereo frame synchroniser (thesis §5.3, Table 10).
 
 The two cameras run on their own pixel clocks and start their frames at different
-times. Each capture writes its words into an ``AsyncFIFOBuffered`` (write side in the
-camera's domain, read side in ``sync``); the synchroniser pairs the two streams
+times. Each capture writes its words into a :class:`~hdl.dual_clock_fifo.DualClockFIFO`
+(write side in the camera's domain, read side in ``sync``); the synchroniser pairs the two streams
 frame by frame:
 
 * **WAIT**: each FIFO independently drops words up to a ``sof`` (one per clock) and
@@ -47,11 +47,13 @@ from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
-from amaranth.lib.fifo import AsyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
+
+from sim.model.validation import check_power_of_two
 
 from ._util import check_geometry, check_int
 from .camera_capture import capture_word_layout
+from .dual_clock_fifo import DualClockFIFO
 
 __all__ = ["StereoSynchronizer", "pixel_pair_layout", "check_fifo"]
 
@@ -68,10 +70,7 @@ def pixel_pair_layout() -> data.StructLayout:
 def check_fifo(fifo_depth: int, threshold: int, pixels: int) -> tuple[int, int]:
     """``fifo_depth`` and ``threshold`` checked as :class:`StereoSynchronizer`
     checks them for frames of ``pixels`` pixels (without building it)."""
-    fifo_depth = check_int("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
-    if fifo_depth & (fifo_depth - 1):
-        raise ValueError(f"fifo_depth must be a power of two in {list(FIFO_DEPTH_RANGE)}, "
-                         f"got {fifo_depth}")
+    fifo_depth = check_power_of_two("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
     return fifo_depth, check_int("threshold", threshold, 1, min(fifo_depth, pixels))
 
 
@@ -90,8 +89,8 @@ class StereoSynchronizer(wiring.Component):
     width : int in [8, 4096], even
     height : int in [2, 4096]
     fifo_depth : power of two in [16, 65536]
-        Words of each FIFO's RAM (absorbs the cameras' phase difference); one
-        more word waits in the FIFO's head register.
+        Words of each FIFO's RAM (absorbs the cameras' phase difference);
+        :data:`~hdl.dual_clock_fifo.OUTPUT_WORDS` (3) more wait in the FIFO's output buffer.
     threshold : int in [1, min(fifo_depth, width*height)]
         N of the thesis: words both FIFOs must hold before a frame starts.
     max_skew : int in [1, fifo_depth], default ``fifo_depth // 2``
@@ -120,8 +119,8 @@ class StereoSynchronizer(wiring.Component):
     ------
     A pixel beat leaves one ``sync`` cycle after both words are at the FIFO heads
     (registered output); a written word reaches its FIFO's head register after
-    the FIFO's two-flop Gray-pointer synchroniser and the RAM read (three
-    ``sync`` clock edges). The ``sync``
+    the FIFO's two-flop Gray-pointer synchroniser, the registered Gray decode
+    and the RAM read (four ``sync`` clock edges). The ``sync``
     clock must pop faster than a camera writes (one word per two PCLK cycles while
     HREF is high), or the FIFOs fill and the captures overrun.
     """
@@ -156,11 +155,11 @@ class StereoSynchronizer(wiring.Component):
         heads = []
         for side, port, domain in (("left", self.i_left, self.left_domain),
                                    ("right", self.i_right, self.right_domain)):
-            # buffered: the head word comes from a register, not from the RAM's read
-            # port, so the marker checks that steer r_en start at a flip-flop
-            # (routed: 10.3 ns through the RAM, see hdl/README.md)
-            fifo = AsyncFIFOBuffered(width=layout.size, depth=depth + 1, r_domain="sync",
-                                     w_domain=domain)
+            # the head word comes from a register and r_en only shifts the output
+            # buffer: the marker checks that decide r_en reach no RAM address
+            # (AsyncFIFOBuffered's did: the limit of half the routed placements,
+            # see hdl/README.md)
+            fifo = DualClockFIFO(width=layout.size, depth=depth, w_domain=domain)
             m.submodules[f"fifo_{side}"] = fifo
             m.d.comb += [fifo.w_data.eq(port.payload), fifo.w_en.eq(port.valid),
                          port.ready.eq(fifo.w_rdy)]
@@ -175,13 +174,13 @@ class StereoSynchronizer(wiring.Component):
         at_first = Signal()
         at_last = Signal()
         flush_left = Signal(range(self.flush + 1))
-        # FIFO levels (AsyncFIFOBuffered registers them after the Gray-code decode):
-        # the decisions below use them two clocks late, which only delays a start
-        # or a drop; depth + 1 words is full (the RAM and the head register).
+        # FIFO levels (two clocks late from the FIFO, registered once more here):
+        # that only delays a start or a drop; full is the RAM and the output
+        # buffer.
         full_l, full_r, ahead_l, ahead_r, filled = (Signal(name=n) for n in (
             "full_l", "full_r", "ahead_l", "ahead_r", "filled"))
         m.d.sync += [
-            full_l.eq(fl.r_level == depth + 1), full_r.eq(fr.r_level == depth + 1),
+            full_l.eq(fl.r_level == fl.capacity), full_r.eq(fr.r_level == fr.capacity),
             ahead_l.eq(fl.r_level > fr.r_level + self.max_skew),
             ahead_r.eq(fr.r_level > fl.r_level + self.max_skew),
             filled.eq((fl.r_level >= self.threshold) & (fr.r_level >= self.threshold)),

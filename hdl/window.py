@@ -114,7 +114,7 @@ class WindowGenerator(wiring.Component):
         used = self.used_rows
         # One word per window row (tap s at bits s*pb ..): the same registers as
         # a register per tap, but a simulator shifts a row in one operation.
-        shift_row = {k: Signal(win * pb, name=f"win_r{k}") for k in used}
+        shift_row = {k: Signal(win * pb, name=f"win_r{k}", reset_less=True) for k in used}
         shift = {k: [shift_row[k][s * pb:(s + 1) * pb] for s in range(win)] for k in used}
         short = [k for k in range(1, self.buffer_rows + 1) if k - 1 in used]
         long_ = [k for k in range(1, self.buffer_rows + 1) if k - 1 not in used]
@@ -122,7 +122,7 @@ class WindowGenerator(wiring.Component):
         # copy's net spans every shift register of a census window)
         rows_per_copy = max(1, self.SHIFT_BITS_PER_BEAT // (win * pb))
         col_valid = replicate(m, beat, -(-len(used) // rows_per_copy), "col_valid")
-        column = {0: delay(m, self.i_stream.payload.pixel, 1, "col")}
+        column = {0: delay(m, self.i_stream.payload.pixel, 1, "col", reset_less=True)}
         lines = []
         for name, rows, length in (("short", short, w - win), ("long", long_, w)):
             if not rows:

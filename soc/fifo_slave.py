@@ -12,7 +12,7 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from sim.model.validation import check_int
+from sim.model.validation import check_int, check_power_of_two
 from .hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, DATA_BITS, DATO_X, DATO_Y,
                             FIFO_DEPTH, FIFO_REGISTERS, LONGITUD_X, LONGITUD_Y)
 
@@ -76,11 +76,7 @@ class FifoSlave(wiring.Component):
 
     def __init__(self, data_bits: int = DATA_BITS, depth: int = FIFO_DEPTH):
         self.data_bits = check_int("data_bits", data_bits, *DATA_BITS_RANGE)
-        depth = check_int("depth", depth, *DEPTH_RANGE)
-        if depth & (depth - 1):
-            raise ValueError(f"depth must be a power of two in [{DEPTH_RANGE[0]}, "
-                             f"{DEPTH_RANGE[1]}], got {depth}")
-        self.depth = depth
+        self.depth = check_power_of_two("depth", depth, *DEPTH_RANGE)
         super().__init__({
             "bus": In(AvalonSlaveSignature(ADDRESS_WIDTH)),
             "i_stream": In(stream.Signature(data.StructLayout(

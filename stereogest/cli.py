@@ -2,7 +2,9 @@
 
 Every subcommand lives in :mod:`stereogest.commands`; a ``ValueError`` raised by
 parameter validation, or an ``OSError`` of a file it reads or writes, is
-reported as a one-line error (exit status 2), never as a traceback.
+reported as a one-line error (exit status 2), never as a traceback. A reader
+that leaves early (``stereogest ... | head``) ends the command quietly, exit
+status 1, whichever subcommand (or ``--help``) was writing.
 """
 from __future__ import annotations
 
@@ -72,6 +74,32 @@ def in_option_names(message: str, parser: argparse.ArgumentParser) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    try:
+        try:
+            return _main(argv)
+        finally:
+            # A pipe makes stdout block-buffered: a short report meets the closed
+            # pipe only here (or at exit, as an "Exception ignored" traceback).
+            if sys.stdout is not None:
+                sys.stdout.flush()
+    except BrokenPipeError:  # `stereogest ... | head`: the reader left, nothing to say
+        _discard_stdout()
+        return 1             # what Python itself returns on EPIPE (signal module docs)
+
+
+def _discard_stdout() -> None:
+    """Point stdout at /dev/null, so Python's own flush at exit raises nothing
+    more (https://docs.python.org/3/library/signal.html#note-on-sigpipe)."""
+    import os
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real stdout (captured, closed, None)
+        pass
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -80,13 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         message = in_option_names(str(exc), args._parser)
         print(f"stereogest {args.command}: error: {message}", file=sys.stderr)
         return 2
-    except BrokenPipeError:  # `stereogest ... | head`: the reader left, nothing to say
-        import os
-        try:    # no second error when Python flushes stdout at exit
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        except (OSError, ValueError, AttributeError):
-            pass
-        return 1
+    except BrokenPipeError:
+        raise                # main's: not a file the command failed to write
     except OSError as exc:  # a path that cannot be read or written: no traceback
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
         print(f"stereogest {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)

@@ -251,8 +251,13 @@ def test_demo_small(tmp_path, capsys):
     out = tmp_path / "demo"
     status, stdout, err = run(capsys, "demo", "--width", "160", "--height", "120", "-o", out,
                               "--backend", "model", "--quiet")
-    assert status == 0 and err == ""
+    # 160x120 is too small a view to recognise the gesture: a failed demo (exit 1,
+    # one line) that still leaves every output
+    assert status == 1, err
+    assert err == "stereogest demo: error: the clip shows rotate-right but the board " \
+                  "application recognised nothing\n"
     summary = json.loads(stdout.strip().splitlines()[-1])
+    assert summary["recognised"] is None
     assert {"gesture", "frames", "flagged", "symbols"} <= set(summary)
     assert summary["gesture"] == "rotate-right"               # the default
     clip_meta = json.loads((out / "clip" / "clip.json").read_text())
@@ -279,11 +284,32 @@ def test_demo_hard_scene_needs_the_hand_tracking(tmp_path, capsys):
         status, stdout, err = run(capsys, "demo", "--backend", "model", "--scene", "hard",
                                   "--gesture", "left", "--seed", "2001", "--width", "320",
                                   "--height", "240", "-o", out, "--quiet", *option)
-        assert err == "", err
+        # missing its own gesture fails the demo
+        assert (status, err) == ((0, "") if option else
+                                 (1, "stereogest demo: error: the clip shows left but the "
+                                     "board application recognised nothing\n")), err
         found[bool(option)] = json.loads(stdout.strip().splitlines()[-1])["recognised"]
         params = json.loads((out / "pipeline" / "summary.json").read_text())["params"]
         assert (params["track_gate"], params["hand_rows"]) == ((32, 18) if option else (0, 0))
     assert found == {False: None, True: "left"}
+
+
+@pytest.mark.parametrize("gesture, recognised, names, failure", [
+    ("stop", "stop", ("stop", "left"), None),
+    (None, None, ("stop",), None),                           # unlabelled footage
+    (None, "left", ("stop", "left"), None),
+    ("stop", None, ("stop", "left"),
+     "the clip shows stop but the board application recognised nothing"),
+    ("stop", "left", ("stop", "left"),
+     "the clip shows stop but the board application recognised left"),
+    ("stop", None, ("up", "down"), "the clip shows stop but the board application "
+                                   "recognised nothing (the model has no class stop: up, down)"),
+])
+def test_demo_fails_when_its_gesture_is_not_recognised(gesture, recognised, names, failure):
+    """The demo's verdict (exit 1 and this line unless None): the recognised
+    gesture must be the rendered (or labelled) one."""
+    from stereogest.commands.demo import gesture_failure
+    assert gesture_failure(gesture, recognised, names) == failure
 
 
 @pytest.mark.parametrize("value", ["-2", "10001"])

@@ -88,6 +88,10 @@ def test_classify_counts_unknown_labels_and_overrides_resample(tmp_path, capsys,
     save_trajectories(strokes(per_class=2, seed=5, extra_label="circle"), other)
     status, out, err = run(capsys, "classify", model, other, "--resample", "16")
     assert status == 0, err
+    # said on stderr, the samples still classified
+    assert err == (f"stereogest classify: warning: {other}: labels the model has no class "
+                   f"for (circle): scored as out-of-vocabulary (rejection_rate_out), not in "
+                   f"accuracy\n")
     report = json.loads(out)
     assert report["resample"] == 16 and report["samples"] == 8
     assert report["unknown_labels"] == ["circle"]
@@ -277,7 +281,8 @@ def test_classify_gaussian_counts_refused_unknown_labels(tmp_path, capsys, gauss
     save_trajectories(strokes(per_class=2, seed=5, extra_label="circle"), other)  # circle: down
     png = tmp_path / "confusion.png"
     status, out, err = run(capsys, "classify", gaussian_model, other, "--plot", png)
-    assert status == 0 and err == ""
+    assert status == 0 and err.startswith("stereogest classify: warning: ")
+    assert err.count("\n") == 1 and "(circle)" in err
     report = json.loads(out)
     assert report["emission"] == "gaussian" and report["samples"] == 8
     assert report["in_vocabulary"] == 6 and report["unknown_labels"] == ["circle"]
@@ -303,6 +308,41 @@ def test_classify_gaussian_without_unknown_labels(capsys, dataset, gaussian_mode
     assert report["rejected"] == sum(row[-1] for row in report["confusion"])
     assert report["accuracy"] == report["correct"] / 18 >= 17 / 18
     assert "confusion_png" not in report
+
+
+def test_classify_refuses_data_of_another_vocabulary(tmp_path, capsys, gaussian_model):
+    """No label of the data is a class of the model (a pen corpus against the
+    gesture model, names spelt differently): the accuracy would mean nothing, so
+    one line naming the labels and the classes (exit 2), no report, no PNG."""
+    data = strokes(per_class=2)
+    foreign = tmp_path / "foreign.npz"
+    save_trajectories(TrajectorySet(data.points, data.offsets,
+                                    np.char.add("pen-", data.label.astype(str))), foreign)
+    png = tmp_path / "confusion.png"
+    status, out, err = run(capsys, "classify", gaussian_model, foreign, "--plot", png)
+    assert status == 2 and out == ""
+    assert_one_line_error(err, "classify", f"{foreign}: none of its labels (pen-down-left, "
+                          f"pen-right, pen-up) is a class of {gaussian_model} (down-left, "
+                          f"right, up)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign.npz"]
+
+
+def test_classify_refuses_a_model_the_board_application_refuses(tmp_path, capsys, dataset):
+    """A valid discrete HMM file of 9 symbols, which the board application
+    refuses (sw_hps.app.check_models): classify refuses it too, one line, exit 2."""
+    from pathlib import Path
+    thesis = json.loads((Path(__file__).resolve().parent.parent / "sw_hps" / "models"
+                         / "thesis7.json").read_text())
+    thesis["num_symbols"] = 9
+    for m in thesis["models"]:
+        m["B"] = [[p * 0.9 for p in row] + [0.1] for row in m["B"]]
+    model = tmp_path / "nine.json"
+    model.write_text(json.dumps(thesis))
+    load_models(model)                       # a well-formed model file ...
+    status, out, err = run(capsys, "classify", model, dataset)
+    assert status == 2 and out == ""         # ... that the board would not run
+    assert_one_line_error(err, "classify", f"{model}: models must use the 8 orientation "
+                          "symbols, got num_symbols=9")
 
 
 def test_classify_confusion_png_must_be_a_png(tmp_path, capsys, dataset, gaussian_model):

@@ -207,9 +207,13 @@ def test_demo_runs_a_given_clip(tmp_path, rendered, capsys):
                  "-o", str(tmp_path / "clip"), "--width", "160", "--height", "120",
                  "--gesture", "stop", "--quiet"]) == 0
     capsys.readouterr()
+    # labelled stop, but 8 frames flag no gesture: the demo fails its label (exit 1)
     assert main(["demo", "--clip", str(tmp_path / "clip"), "--backend", "model", "-o",
-                 str(tmp_path / "out"), "--quiet"]) == 0
-    lines = capsys.readouterr().out.strip().splitlines()
+                 str(tmp_path / "out"), "--quiet"]) == 1
+    out, err = capsys.readouterr()
+    assert err == "stereogest demo: error: the clip shows stop but the board application " \
+                  "recognised nothing\n"
+    lines = out.strip().splitlines()
     report = json.loads(lines[-1])
     assert report["gesture"] == "stop" and report["frames"] == rendered.frames
     assert report["width"] == 160 and "recognised" in report

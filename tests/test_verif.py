@@ -68,6 +68,14 @@ def test_simulation_verilog_refuses_an_unknown_emission():
         simulation_verilog(Module(), "top", [Signal()], "iverilog")
 
 
+def test_builders_refuse_an_unknown_emission():
+    # before anything is elaborated (a 64x32 core would take seconds)
+    from verif import pipeline, system
+    for build in (pipeline.build_pipeline, system.build_system):
+        with pytest.raises(ValueError, match="emission must be one of"):
+            build(64, 32, emission="iverilog")
+
+
 def test_hardware_progress_line():
     line = hardware_progress(10, 100, 3_500_000, 35.0)
     assert line == ("  hardware: frame 10/100, 3,500,000 cycles, 100,000 cycles/s, "

@@ -28,7 +28,8 @@ from sim.model.validation import check_int
 
 from .clocks import Clocks, camera_waveforms, clip_timing
 from .pipeline import CFLAGS
-from .verilator import CPP, EMISSIONS, build_root, simulation_verilog, sources_digest, verilate
+from .verilator import (CPP, EMISSIONS, build_root, check_emission, simulation_verilog,
+                        sources_digest, verilate)
 
 __all__ = ["build_system", "VerilatorSystem", "SystemBus", "decode_uart"]
 
@@ -85,7 +86,8 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
     from soc.core import CORE_NAME, VGA_SCALE, strip_zero_init
     vga_scale = VGA_SCALE if vga_scale is None else vga_scale
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
-                config_ps=clocks.config_ps, emission=emission, vga_scale=vga_scale,
+                config_ps=clocks.config_ps, emission=check_emission(emission),
+                vga_scale=vga_scale,
                 **params.as_dict())
     if rectification is not None:
         spec["rectification"] = rectification.digest()

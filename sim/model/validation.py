@@ -14,6 +14,7 @@ import numbers
 import numpy as np
 
 __all__ = [
+    "check_power_of_two",
     "check_int", "check_number", "check_odd_window", "check_byte_range", "check_image",
     "check_same_shape", "check_bool_image", "check_points", "check_flags",
 ]
@@ -29,6 +30,14 @@ def check_int(name: str, value, lo: int | None = None, hi: int | None = None) ->
     value = int(value)
     if (lo is not None and value < lo) or (hi is not None and value > hi):
         raise ValueError(f"{name} must be in [{lo_s}, {hi_s}], got {value}")
+    return value
+
+
+def check_power_of_two(name: str, value, lo: int, hi: int) -> int:
+    """Return ``value`` as ``int`` if it is a power of two in ``[lo, hi]``."""
+    value = check_int(name, value, lo, hi)
+    if value & (value - 1):
+        raise ValueError(f"{name} must be a power of two in [{lo}, {hi}], got {value}")
     return value
 
 

@@ -13,10 +13,19 @@ print JSON:
 * ``class_names``, ``samples``, ``in_vocabulary``, ``unknown_labels``,
   ``rejected`` (all refused samples), ``accuracy_without_rejection`` (the
   best class whatever its score).
+
+The model must be one the board application runs (``sw_hps.app.check_models``:
+discrete models emit the 8 orientation symbols), else an error (exit status 2).
+Samples whose label is not one of the model's classes are out-of-vocabulary:
+a warning on stderr names those labels, and they count in
+``rejection_rate_out`` only. When no label of the data is a class of the model
+(a different vocabulary), the accuracy would mean nothing: an error (exit
+status 2), nothing classified.
 """
 from __future__ import annotations
 
 import json
+import sys
 
 from stereogest.commands import add_json_switch
 
@@ -61,6 +70,18 @@ def _front_end(option, meta) -> int | None:
     return value
 
 
+def unknown_labels(labels, class_names) -> list[str]:
+    """The labels (sorted, once each) that are not among ``class_names``."""
+    return sorted(set(labels) - set(class_names))
+
+
+def _listed(names, most: int = 10) -> str:
+    """``a, b, c`` (the first ``most``, then how many more): one line however many."""
+    names = list(names)
+    more = f" and {len(names) - most} more" if len(names) > most else ""
+    return ", ".join(names[:most]) + more
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -68,9 +89,14 @@ def run(args) -> int:
     from recognition.evaluation import confusion_matrix, confusion_png
     from recognition.features import feature_sets, sequences
     from recognition.recogniser import Recogniser
+    from sw_hps.app import check_models
     from sw_hps.hmm import load_models
 
     models = load_models(args.model)
+    try:    # what the board application would refuse is no model to score
+        check_models(models)
+    except ValueError as exc:
+        raise ValueError(f"{args.model}: {exc}") from None
     resample = _front_end(args.resample, models.meta)
     if args.confusion_png is not None and not str(args.confusion_png).endswith(".png"):
         raise ValueError(f"--plot must name a .png file, got {args.confusion_png!r}")
@@ -80,6 +106,14 @@ def run(args) -> int:
     data = load_trajectories(args.data)
     if len(data) == 0:
         raise ValueError(f"{args.data}: holds no trajectories")
+    unknown = unknown_labels(data.label.tolist(), models.class_names)
+    if len(unknown) == len(set(data.label.tolist())):
+        raise ValueError(f"{args.data}: none of its labels ({_listed(unknown)}) is a class of "
+                         f"{args.model} ({_listed(models.class_names)}); nothing to score")
+    if unknown:
+        print(f"stereogest classify: warning: {args.data}: labels the model has no class for "
+              f"({_listed(unknown)}): scored as out-of-vocabulary (rejection_rate_out), "
+              f"not in accuracy", file=sys.stderr)
     if models.emission == "gaussian":
         samples = feature_sets(data, models.resample, camera=resample is None)
     else:
@@ -106,7 +140,7 @@ def run(args) -> int:
               "rejection_rate_in": refused_in / inside if inside else None,
               "rejection_rate_out": refused_out / outside if outside else None,
               "rejected": refused_in + refused_out,
-              "unknown_labels": sorted({x for x, k in zip(labels, known) if not k}),
+              "unknown_labels": unknown,
               "class_names": list(names), "confusion": confusion.tolist()}
     if args.confusion_png is not None:
         confusion_png(confusion, names, args.confusion_png,

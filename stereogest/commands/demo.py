@@ -8,6 +8,11 @@ bytes seen on the UART pin. The golden model runs beside it: it draws a picture
 of every stage and checks the FIFO words and the VGA frame. The last line is
 JSON with gesture (rendered), recognised and telegram (hex).
 
+The exit status is 1 when the demo fails its own gesture: the board
+application recognised another gesture, or none, than the one rendered (or
+the one a --clip is labelled with; unlabelled footage has none to fail), and
+with --backend verilator also when the hardware and the golden model disagree.
+
 ``--backend model`` runs the golden model only (the application then reads a
 simulated FIFO), for a quick look."""
 from __future__ import annotations
@@ -66,6 +71,33 @@ def add_arguments(p):
     add_hand_tracking_option(p)
     add_scene_options(p)
     add_json_switch(p, always=True)
+
+
+def gesture_failure(gesture: str | None, recognised: str | None,
+                    class_names=()) -> str | None:
+    """Why the demo failed its own gesture, or None if it did not.
+
+    Parameters
+    ----------
+    gesture : str or None
+        The gesture rendered (or a clip's label); None for unlabelled footage,
+        which has no gesture to fail.
+    recognised : str or None
+        The gesture the board application recognised last; None for none.
+    class_names : sequence of str
+        The model's classes, to say when it cannot recognise ``gesture`` at all.
+
+    Returns
+    -------
+    str or None
+        One line for ``stereogest demo: error:``.
+    """
+    if gesture is None or recognised == gesture:
+        return None
+    got = f"recognised {recognised}" if recognised else "recognised nothing"
+    why = ("" if not class_names or gesture in class_names
+           else f" (the model has no class {gesture}: {', '.join(class_names)})")
+    return f"the clip shows {gesture} but the board application {got}{why}"
 
 
 def _say(quiet: bool):
@@ -221,10 +253,14 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram):
             report.update(recognised=recognised, telegram=telegram)
             print(json.dumps(report))
-            print("demo: error: the hardware and the golden model disagree (see above)",
-                  file=sys.stderr)
+            print("stereogest demo: error: the hardware and the golden model disagree "
+                  "(see above)", file=sys.stderr)
             return 1
     report.update(recognised=recognised, telegram=telegram,
                   seconds=round(time.perf_counter() - start, 1))
     print(json.dumps(report))
+    failure = gesture_failure(clip.gesture, recognised, models.class_names)
+    if failure is not None:     # a demo that misses its own gesture has failed
+        print(f"stereogest demo: error: {failure}", file=sys.stderr)
+        return 1
     return 0
