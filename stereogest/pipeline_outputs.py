@@ -105,6 +105,20 @@ def shipped_model_path() -> Path:
     return Path(sw_hps.__file__).parent / "models" / "gestures7.json"
 
 
+def load_board_models(path=None):
+    """The models at ``path`` (None: the shipped ones), refused with a
+    ``ValueError`` naming the file if the board application would refuse them
+    (``sw_hps.app.check_models``), before any work is done."""
+    from sw_hps.app import check_models
+    from sw_hps.hmm import load_models
+    path = shipped_model_path() if path is None else path
+    models = load_models(path)
+    try:
+        return check_models(models)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
 def recognise(models, trajectory):
     """The board application on a trajectory (a simulated FIFO): the last
     recognised gesture (None) and its NXT telegram (hex, or None)."""

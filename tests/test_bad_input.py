@@ -203,6 +203,12 @@ CASES = [
                             ("--spot-hold", "0"), ("--spot-hold", "256")]],
     case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/nope.json",
          match="nope.json"),
+    # a model the board application refuses is refused before any work
+    *[case(*args, "--model", f"{IN}/nine_symbols.json",
+           match="nine_symbols.json: models must use the 8 orientation symbols")
+      for args in (("pipeline", f"{IN}/clip", "-o", f"{OUT}/p"),
+                   ("demo", "--clip", f"{IN}/clip", "--backend", "model", "-o", f"{OUT}/d"),
+                   ("live", "--clip", f"{IN}/clip", "--port", "0"))],
     case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/text.json",
          match="text.json"),
     case("pipeline", f"{IN}/clip", "-o", f"{OUT}/p", "--model", f"{IN}/empty.json",

@@ -89,14 +89,10 @@ def run(args) -> int:
     from recognition.evaluation import confusion_matrix, confusion_png
     from recognition.features import feature_sets, sequences
     from recognition.recogniser import Recogniser
-    from sw_hps.app import check_models
-    from sw_hps.hmm import load_models
+    from stereogest.pipeline_outputs import load_board_models
 
-    models = load_models(args.model)
-    try:    # what the board application would refuse is no model to score
-        check_models(models)
-    except ValueError as exc:
-        raise ValueError(f"{args.model}: {exc}") from None
+    # what the board application would refuse is no model to score
+    models = load_board_models(args.model)
     resample = _front_end(args.resample, models.meta)
     if args.confusion_png is not None and not str(args.confusion_png).endswith(".png"):
         raise ValueError(f"--plot must name a .png file, got {args.confusion_png!r}")

@@ -112,8 +112,7 @@ def run(args) -> int:
     from sim.model.validation import check_int
     from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
     from stereogest.commands import OutputDir, load_rectification, vga_scale_of
-    from stereogest.pipeline_outputs import shipped_model_path
-    from sw_hps.hmm import load_models
+    from stereogest.pipeline_outputs import load_board_models
 
     # Every option checked before anything is created or rendered.
     if args.threads is not None:
@@ -136,7 +135,7 @@ def run(args) -> int:
         raise ValueError(f"--pre-rest must be in -1..{MAX_SEGMENT_FRAMES}, got "
                          f"{args.pre_rest}")
     say = _say(args.quiet)
-    models = load_models(args.model or shipped_model_path())
+    models = load_board_models(args.model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)

@@ -51,9 +51,8 @@ def run(args) -> int:
     from sim.footage import MAX_FRAMES, StereoSource
     from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
-    from stereogest.pipeline_outputs import shipped_model_path
+    from stereogest.pipeline_outputs import load_board_models
     from stereogest.live import LiveServer, LiveSession, run_source
-    from sw_hps.hmm import load_models
 
     if (args.clip is None) == (args.left is None and args.right is None) or \
             (args.clip is None and (args.left is None or args.right is None)):
@@ -67,7 +66,7 @@ def run(args) -> int:
         check_int("--frames", args.frames, 1, MAX_FRAMES)
     check_int("--port", args.port, 0, 65535)
     check_int("--threads", args.threads, 1, 64)
-    models = load_models(args.model or shipped_model_path())
+    models = load_board_models(args.model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)

@@ -13,8 +13,9 @@ import json
 import sys
 import time
 
-from stereogest.pipeline_outputs import (STALE, parse_frames, progress_printer, recognise,
-                                         shipped_model_path, warn_if_empty, write_outputs)
+from stereogest.pipeline_outputs import (STALE, load_board_models, parse_frames,
+                                         progress_printer, recognise, warn_if_empty,
+                                         write_outputs)
 
 NAME = "pipeline"
 HELP = "golden model of the FPGA pipeline over a clip: trajectory.csv and stage pictures"
@@ -55,12 +56,11 @@ def run(args) -> int:
     from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
     from stereogest.commands import OutputDir, load_rectification
-    from sw_hps.hmm import load_models
 
     clip = load_clip(args.clip)
     frames = clip.left.shape[0]
     chosen = set(parse_frames(args.frames, frames, clip.motion_frames))
-    models = load_models(args.model or shipped_model_path())
+    models = load_board_models(args.model)
     overrides = {k: v for k, v in (("spot_threshold", args.spot_threshold),
                                    ("spot_hold", args.spot_hold)) if v is not None}
     params = PipelineParams.for_frame(clip.width, hand_tracking=args.hand_tracking,
