@@ -8,7 +8,7 @@ from amaranth.hdl import Signal
 
 from sim.model.validation import check_int, check_odd_window
 
-__all__ = ["check_int", "check_odd_window", "check_geometry", "delay", "replicate",
+__all__ = ["check_int", "check_odd_window", "check_geometry", "check_domain", "delay", "replicate",
            "register_input",
            "KEEP_REGISTER",
            "bits_for", "WIDTH_RANGE", "HEIGHT_RANGE", "PIXEL_BITS_RANGE"]
@@ -29,6 +29,13 @@ def check_geometry(width, height, min_width: int = WIDTH_RANGE[0]):
     width = check_int("width", width, lo, WIDTH_RANGE[1])
     height = check_int("height", height, *HEIGHT_RANGE)
     return width, height
+
+
+def check_domain(name: str, value) -> str:
+    """Validate a clock domain name (a non-empty string)."""
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{name} must be a non-empty clock domain name, got {value!r}")
+    return value
 
 
 def delay(m, value, cycles: int, name: str = "dly", *, reset_less: bool = False):

@@ -24,7 +24,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_power_of_two
 
-from ._util import check_int
+from ._util import check_domain, check_int
 
 __all__ = ["DualClockFIFO", "OUTPUT_WORDS", "DEPTH_RANGE"]
 
@@ -88,11 +88,8 @@ class DualClockFIFO(wiring.Component):
     def __init__(self, *, width: int, depth: int, w_domain: str, r_domain: str = "sync"):
         self.width = check_int("width", width, *WIDTH_RANGE)
         self.depth = check_power_of_two("depth", depth, *DEPTH_RANGE)
-        for name, value in (("w_domain", w_domain), ("r_domain", r_domain)):
-            if not isinstance(value, str) or not value:
-                raise ValueError(f"{name} must be a non-empty clock domain name, "
-                                 f"got {value!r}")
-        self._w_domain, self._r_domain = w_domain, r_domain
+        self._w_domain = check_domain("w_domain", w_domain)
+        self._r_domain = check_domain("r_domain", r_domain)
         super().__init__({
             "w_data": In(self.width), "w_en": In(1), "w_rdy": Out(1),
             "r_data": Out(self.width), "r_rdy": Out(1), "r_en": In(1),

@@ -51,7 +51,7 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_power_of_two
 
-from ._util import check_geometry, check_int
+from ._util import check_domain, check_geometry, check_int
 from .camera_capture import capture_word_layout
 from .dual_clock_fifo import DualClockFIFO
 
@@ -72,12 +72,6 @@ def check_fifo(fifo_depth: int, threshold: int, pixels: int) -> tuple[int, int]:
     checks them for frames of ``pixels`` pixels (without building it)."""
     fifo_depth = check_power_of_two("fifo_depth", fifo_depth, *FIFO_DEPTH_RANGE)
     return fifo_depth, check_int("threshold", threshold, 1, min(fifo_depth, pixels))
-
-
-def _check_domain(name: str, value) -> str:
-    if not isinstance(value, str) or not value:
-        raise ValueError(f"{name} must be a non-empty clock domain name, got {value!r}")
-    return value
 
 
 class StereoSynchronizer(wiring.Component):
@@ -138,8 +132,8 @@ class StereoSynchronizer(wiring.Component):
             max_skew = self.fifo_depth // 2
         self.max_skew = check_int("max_skew", max_skew, 1, self.fifo_depth)
         self.flush = check_int("flush", flush, 0, FLUSH_MAX)
-        self.left_domain = _check_domain("left_domain", left_domain)
-        self.right_domain = _check_domain("right_domain", right_domain)
+        self.left_domain = check_domain("left_domain", left_domain)
+        self.right_domain = check_domain("right_domain", right_domain)
         word = stream.Signature(capture_word_layout())
         super().__init__({
             "i_left": In(word), "i_right": In(word),
