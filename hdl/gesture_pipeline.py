@@ -46,7 +46,7 @@ from sim.model.rectify import StereoRectification
 
 from ._util import bits_for
 from .camera_capture import CameraCapture
-from .centroid import Centroid, centroid_cycles_after_frame
+from .centroid import GATE_LOAD_CYCLES, Centroid, centroid_cycles_after_frame
 from .gesture_spotting import GestureSpotting
 from .lrcc import disparity_bits
 from .median3x3 import Median3x3, median_memory_bits, median_timing
@@ -145,8 +145,9 @@ def pipeline_timing(width: int, height: int, params: PipelineParams = PipelinePa
     centroid_cycles = centroid_cycles_after_frame(width, height, params.hand_tracking)
     # A frame's first pixel reaches the centroid at least ``flush`` beats after
     # the previous frame's last one: the gate must be loaded by then.
-    if params.track_gate and flush <= centroid_cycles:
-        raise ValueError(f"track_gate needs at least {centroid_cycles + 1} flush beats "
+    gate_cycles = centroid_cycles + GATE_LOAD_CYCLES
+    if params.track_gate and flush <= gate_cycles:
+        raise ValueError(f"track_gate needs at least {gate_cycles + 1} flush beats "
                          f"between frames, the windows give {flush}")
     pixel_cycles = sum(s.cycles for s in pixel)
     record_cycles = (flush + pixel_cycles + centroid_cycles

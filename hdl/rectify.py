@@ -31,16 +31,21 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.rectify import INTERPOLATIONS, RectifyGrid
 
-from ._util import bits_for, check_geometry, check_int, delay
+from ._util import bits_for, check_geometry, check_int, delay, register_input, replicate
 from .raster_position import OVERRUN_ROWS, RasterPosition
 from .stage import StageTiming
 
 __all__ = ["Rectifier", "rectify_timing", "ring_rows", "check_rectifier", "rectify_memory_bits",
-           "MAX_SHIFT_Y"]
+           "MAX_SHIFT_Y", "CHUNK_WORDS"]
 
 #: Largest vertical reach of the row buffers, rows (the ring stays within the
 #: position counters' overrun).
 MAX_SHIFT_Y = (OVERRUN_ROWS - 6) // 2
+
+#: Words of a row-buffer bank's memory chunk: one block deep at the widths
+#: the blocks offer for 8 to 24-bit words (ECP5 DP16KD 2048 x 9, Cyclone V M10K
+#: 2048 x 5), so a chunk's output needs no multiplexer before its register.
+CHUNK_WORDS = 2048
 
 
 def ring_rows(max_shift_y: int) -> int:
@@ -51,8 +56,10 @@ def ring_rows(max_shift_y: int) -> int:
 
 def rectify_timing(width: int, max_shift_x: int, max_shift_y: int) -> StageTiming:
     """Look-ahead (Vmax + 1) * width + Hmax + 2 beats; :attr:`Rectifier.cycles`
-    (16: every memory read and every multiplier has a register stage of its
-    own, for 100 MHz routed on an ECP5)."""
+    (18: an input register, every memory read and every multiplier has a
+    register stage of its own, the pixel products a second one, and each
+    multiplier its own copy of a shared operand: issue 27's routed margin on
+    an ECP5)."""
     return StageTiming(lag=(max_shift_y + 1) * width + max_shift_x + 2,
                        cycles=Rectifier.cycles)
 
@@ -144,7 +151,7 @@ class Rectifier(wiring.Component):
         ``row buffers`` (rows * width * lanes * 8), ``map grid`` and ``map line``.
     """
 
-    cycles = 16
+    cycles = 18
 
     def __init__(self, width: int, height: int, grid: RectifyGrid, *, lanes: int = 1,
                  interpolation: str = "bilinear", max_shift_x: int | None = None,
@@ -177,15 +184,17 @@ class Rectifier(wiring.Component):
         f = grid.frac_bits
         gb, lb = self.grid_bits, self.line_bits
         rows, half_w = self.rows, w // 2
-        beat = self.i_stream.valid
-        p = self.i_stream.payload
+        # the input registered, its beat once for each position counter and
+        # once for the rest: every path starts at a register of this stage
+        p, (beat, beat_in, beat_out, beat_ahead) = register_input(
+            m, self.i_stream, 4, "input")
 
         def reg(value, name, cycles=1):
             return delay(m, value, cycles, name)
 
-        pos_in = RasterPosition(w, h, 0, "in").attach(m, beat, p.first)
-        out = RasterPosition(w, h, self.lag, "out").attach(m, beat, p.first)
-        ahead = RasterPosition(w, h, self.lag - w, "next").attach(m, beat, p.first)
+        pos_in = RasterPosition(w, h, 0, "in").attach(m, beat_in, p.first)
+        out = RasterPosition(w, h, self.lag, "out").attach(m, beat_out, p.first)
+        ahead = RasterPosition(w, h, self.lag - w, "next").attach(m, beat_ahead, p.first)
 
         # --- ring buffer: four banks by (row parity, column parity) ---------------------
         # written two cycles after the beat (the address is a product and a sum)
@@ -206,14 +215,26 @@ class Rectifier(wiring.Component):
         w_en_2 = reg(beat, "wen", 2)
         w_data_2 = reg(p.pixel.as_value(), "wdata", 2)
         depth_bits = (depth - 1).bit_length()
+        # each bank in chunks of at most CHUNK_WORDS, one block deep, whose
+        # outputs are registered before they are multiplexed (a block's output
+        # is slow, and a bank of several blocks in depth put that multiplexer
+        # in the same cycle: the limit of the routed rectified pipeline)
+        chunk_bits = min(depth_bits, CHUNK_WORDS.bit_length() - 1)
+        chunks = -(-depth >> chunk_bits)
+        w_addr_2 = (w_row_2 + w_col_2)[:depth_bits]
         banks = []
         for b in range(4):
-            bank = memory.Memory(shape=8 * self.lanes, depth=depth, init=[])
-            m.submodules[f"bank_{b}"] = bank
-            wr = bank.write_port()
-            m.d.comb += [wr.addr.eq((w_row_2 + w_col_2)[:depth_bits]), wr.data.eq(w_data_2),
-                         wr.en.eq(w_en_2 & (w_bank_2 == b))]
-            banks.append(bank.read_port(transparent_for=()))
+            ports = []
+            for c in range(chunks):
+                size = min(depth - (c << chunk_bits), 1 << chunk_bits)
+                chunk = memory.Memory(shape=8 * self.lanes, depth=size, init=[])
+                m.submodules[f"bank_{b}_{c}" if chunks > 1 else f"bank_{b}"] = chunk
+                wr = chunk.write_port()
+                m.d.comb += [wr.addr.eq(w_addr_2[:chunk_bits]), wr.data.eq(w_data_2),
+                             wr.en.eq(w_en_2 & (w_bank_2 == b)
+                                      & (w_addr_2[chunk_bits:] == c))]
+                ports.append(chunk.read_port(transparent_for=()))
+            banks.append(ports)
 
         # --- map: vertical interpolation one row ahead ----------------------------------
         words = [(int(dy) & ((1 << gb) - 1)) << gb | (int(dx) & ((1 << gb) - 1))
@@ -223,26 +244,32 @@ class Rectifier(wiring.Component):
         top, bottom = rom.read_port(), rom.read_port()
         cols = self.grid_cols
         in_grid = beat & (ahead.y >= 0) & (ahead.y < h) & (ahead.x < cols)
-        gy_1 = reg((ahead.y >> s)[:bits_for(self.grid_rows)], "vgy")
+        # the grid row's first word (a product), then both addresses (sums), each
+        # registered: a sum in front of a memory block's address is slow
+        base_1 = Signal(range(self.grid_rows * cols + 1), name="vbase")
+        m.d.sync += base_1.eq((ahead.y >> s)[:bits_for(self.grid_rows)] * cols)
         k_1, fy_1 = reg(ahead.x[:bits_for(cols)], "vk"), reg(ahead.y[:s], "vfy")
         parity_1, ok_1 = reg(ahead.y[0], "vrow"), reg(in_grid, "vok")
-        base_2 = Signal(range(self.grid_rows * cols + 1), name="vbase")
-        m.d.sync += base_2.eq(gy_1 * cols)
+        top_addr, bottom_addr = (Signal(range(len(words)), name=n)
+                                 for n in ("vtop_addr", "vbottom_addr"))
+        m.d.sync += [top_addr.eq(Mux(ok_1, base_1 + k_1, 0)),
+                     bottom_addr.eq(Mux(ok_1, base_1 + k_1 + cols, 0))]
         k_2, fy_2, parity_2, ok_2 = (reg(v, n) for v, n in ((k_1, "vk2"), (fy_1, "vfy2"),
                                                              (parity_1, "vrow2"), (ok_1, "vok2")))
-        m.d.comb += [top.addr.eq(Mux(ok_2, base_2 + k_2, 0)),
-                     bottom.addr.eq(Mux(ok_2, base_2 + k_2 + cols, 0))]
+        m.d.comb += [top.addr.eq(top_addr), bottom.addr.eq(bottom_addr)]
         # the grid words registered first: the ROM spans several blocks, whose
         # outputs are multiplexed
         top_4, bottom_4 = reg(top.data, "vtop"), reg(bottom.data, "vbottom")
-        fy_4 = reg(fy_2, "vfy4", 2)
+        fy_3 = reg(fy_2, "vfy3")
+        # the weights registered as they are, next to the multipliers
+        fy_4, nfy_4 = reg(fy_3, "vfy4"), reg(step - fy_3, "vnfy4")
         line_shape = data.StructLayout({"dx": signed(lb), "dy": signed(lb)})
         products = []
         for lo in (0, gb):
             g0 = top_4[lo:lo + gb].as_signed()
             g1 = bottom_4[lo:lo + gb].as_signed()
             pair = (Signal(signed(lb), name=f"vtop_{lo}"), Signal(signed(lb), name=f"vbot_{lo}"))
-            m.d.sync += [pair[0].eq((step - fy_4) * g0), pair[1].eq(fy_4 * g1)]
+            m.d.sync += [pair[0].eq(nfy_4 * g0), pair[1].eq(fy_4 * g1)]
             products.append(pair)
         v_new = Signal(line_shape)
         m.d.sync += [v_new.dx.eq(products[0][0] + products[0][1]),
@@ -258,7 +285,7 @@ class Rectifier(wiring.Component):
                          wr.data.eq(v_new), wr.en.eq(ok_6 & (k_6[0] == odd))]
             lines.append(line.read_port(transparent_for=()))
 
-        # --- per output pixel, one register stage after another (16 in all) -----------
+        # --- per output pixel, one register stage after another (18 in all) -----------
         x_1, y_1 = reg(out.x, "x1"), reg(out.y, "y1")
         gx_1 = x_1 >> s
         for line, addr in ((lines[0], (gx_1 + 1) >> 1), (lines[1], gx_1 >> 1)):
@@ -273,7 +300,9 @@ class Rectifier(wiring.Component):
         w_even, w_odd = Signal(s + 1, name="w_even"), Signal(s + 1, name="w_odd")
         m.d.sync += [w_even.eq(Mux(swap_1, fx_1, step - fx_1)),
                      w_odd.eq(Mux(swap_1, step - fx_1, fx_1))]
-        w_even, w_odd = reg(w_even, "w_even3"), reg(w_odd, "w_odd3")
+        # one copy of each weight per multiplier (kept apart in synthesis)
+        w_even = dict(zip(("dx", "dy"), replicate(m, w_even, 2, "w_even3", reset_less=True)))
+        w_odd = dict(zip(("dx", "dy"), replicate(m, w_odd, 2, "w_odd3", reset_less=True)))
         even = data.View(line_shape, reg(lines[0].data.as_value(), "even3"))
         odd = data.View(line_shape, reg(lines[1].data.as_value(), "odd3"))
         sum_bits = lb + s + 1
@@ -281,8 +310,8 @@ class Rectifier(wiring.Component):
         for axis in ("dx", "dy"):
             a, b = Signal(signed(sum_bits), name=f"h0_{axis}"), Signal(signed(sum_bits),
                                                                      name=f"h1_{axis}")
-            m.d.sync += [a.eq(w_even * getattr(even, axis)),
-                         b.eq(w_odd * getattr(odd, axis))]
+            m.d.sync += [a.eq(w_even[axis] * getattr(even, axis)),
+                         b.eq(w_odd[axis] * getattr(odd, axis))]
             total = Signal(signed(sum_bits + 1), name=f"h_{axis}")
             m.d.sync += total.eq(a + b)
             blend[axis] = total
@@ -343,6 +372,7 @@ class Rectifier(wiring.Component):
             same_row.append(same)
         # each bank's slot; its row's base address; the read
         slot_bottom = Mux(slot_top == rows - 1, 0, slot_top + 1)
+        chunk_of = [None] * 4
         for b in range(4):
             slot_bank = Signal(slot_bits, name=f"slot8_{b}")
             m.d.sync += slot_bank.eq(Mux(inside[b], Mux(same_row[b], slot_top, slot_bottom),
@@ -350,15 +380,29 @@ class Rectifier(wiring.Component):
             row_base = Signal(range(depth + 1), name=f"rowbase9_{b}")
             m.d.sync += row_base.eq((slot_bank >> 1) * half_w)
             col_bank = reg(Mux(inside[b], col_half[b], 0), f"col9_{b}", 2)
-            m.d.comb += banks[b].addr.eq((row_base + col_bank)[:depth_bits])
-        # the words registered (each bank spans several memory blocks); then the
-        # four words to their taps (00, 10, 01, 11: x, y offsets), 0
-        # outside; the weights
-        words = [reg(bank.data, f"word11_{b}") for b, bank in enumerate(banks)]
+            addr = (row_base + col_bank)[:depth_bits]
+            for port in banks[b]:
+                m.d.comb += port.addr.eq(addr[:chunk_bits])
+            chunk_of[b] = reg(addr[chunk_bits:], f"chunk11_{b}", 2)
+        # each chunk's word registered; then the chunk's word of each bank to
+        # its tap (00, 10, 01, 11: x, y offsets), 0 outside; the weights
+        words = []
+        for b, ports in enumerate(banks):
+            chunk_words = [reg(port.data, f"word11_{b}_{c}") for c, port in enumerate(ports)]
+            word = Signal(8 * self.lanes, name=f"word11_{b}")
+            with m.Switch(chunk_of[b]):
+                for c, chunk_word in enumerate(chunk_words):
+                    with m.Case(c):
+                        m.d.comb += word.eq(chunk_word)
+            words.append(word)
         inside_late = [reg(ok, f"inside11_{b}", 4) for b, ok in enumerate(inside)]
         ix_odd, iy_odd = reg(ix_r[0], "ixodd", 5), reg(iy_r[0], "iyodd", 5)
-        ax_late, ay_late = reg(ax_r, "ax11", 5), reg(ay_r, "ay11", 5)
         one = 1 << f
+        # the fractions and their complements registered, so that each weight
+        # is one multiplier between registers
+        ax_9, ay_9 = reg(ax_r, "ax9", 3), reg(ay_r, "ay9", 3)
+        ax_late, ay_late = reg(ax_9, "ax10"), reg(ay_9, "ay10")
+        nax_late, nay_late = reg(one - ax_9, "nax10"), reg(one - ay_9, "nay10")
         taps = []
         for dx_, dy_ in ((0, 0), (1, 0), (0, 1), (1, 1)):
             word = Signal(8 * self.lanes, name=f"tap_{dx_}{dy_}")
@@ -368,19 +412,22 @@ class Rectifier(wiring.Component):
                         m.d.sync += word.eq(Mux(inside_late[b], words[b], 0))
             taps.append(word)
         weights = []
-        for k, value in enumerate(((one - ax_late) * (one - ay_late), ax_late * (one - ay_late),
-                                   (one - ax_late) * ay_late, ax_late * ay_late)):
+        for k, value in enumerate((nax_late * nay_late, ax_late * nay_late,
+                                   nax_late * ay_late, ax_late * ay_late)):
             weight = Signal(2 * f + 1, name=f"weight_{k}")
             m.d.sync += weight.eq(value)
-            weights.append(weight)
+            # then one copy per lane's multiplier (kept apart in synthesis)
+            weights.append(replicate(m, weight, self.lanes, f"weight12_{k}", reset_less=True))
         # products; two sums; the rounded total
         outs = []
         for lane in range(self.lanes):
             prods = []
             for k, (weight, tap) in enumerate(zip(weights, taps)):
-                prod = Signal(8 + 2 * f + 1, name=f"prod_{lane}_{k}")
-                m.d.sync += prod.eq(weight * tap[8 * lane:8 * lane + 8])
-                prods.append(prod)
+                # the product registered twice: next to the multiplier, then
+                # next to the adders
+                prod = Signal(8 + 2 * f + 1, name=f"prod_{lane}_{k}", reset_less=True)
+                m.d.sync += prod.eq(weight[lane] * tap[8 * lane:8 * lane + 8])
+                prods.append(reg(prod, f"prod14_{lane}_{k}"))
             pair_a = Signal(8 + 2 * f + 2, name=f"pair_a_{lane}")
             pair_b = Signal(8 + 2 * f + 2, name=f"pair_b_{lane}")
             m.d.sync += [pair_a.eq(prods[0] + prods[1]), pair_b.eq(prods[2] + prods[3])]
@@ -389,9 +436,9 @@ class Rectifier(wiring.Component):
             outs.append(total[2 * f:2 * f + 8])
         o = self.o_stream.payload
         m.d.comb += [
-            self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),
-            o.first.eq(delay(m, out.is_first, self.cycles, "first")),
-            o.real.eq(delay(m, out.real, self.cycles, "real")),
+            self.o_stream.valid.eq(delay(m, beat, self.cycles - 1, "valid")),
+            o.first.eq(delay(m, out.is_first, self.cycles - 1, "first")),
+            o.real.eq(delay(m, out.real, self.cycles - 1, "real")),
             o.pixel.eq(Cat(*outs)),
         ]
         return m

@@ -84,7 +84,8 @@ class StereoSynchronizer(wiring.Component):
     height : int in [2, 4096]
     fifo_depth : power of two in [16, 65536]
         Words of each FIFO's RAM (absorbs the cameras' phase difference);
-        :data:`~hdl.dual_clock_fifo.OUTPUT_WORDS` (3) more wait in the FIFO's output buffer.
+        :data:`~hdl.dual_clock_fifo.OUTPUT_WORDS` (3) more wait in the FIFO's
+        output buffer and two in the skid buffer behind it.
     threshold : int in [1, min(fifo_depth, width*height)]
         N of the thesis: words both FIFOs must hold before a frame starts.
     max_skew : int in [1, fifo_depth], default ``fifo_depth // 2``
@@ -111,12 +112,15 @@ class StereoSynchronizer(wiring.Component):
 
     Timing
     ------
-    A pixel beat leaves one ``sync`` cycle after both words are at the FIFO heads
-    (registered output); a written word reaches its FIFO's head register after
-    the FIFO's two-flop Gray-pointer synchroniser, the registered Gray decode
-    and the RAM read (four ``sync`` clock edges). The ``sync``
-    clock must pop faster than a camera writes (one word per two PCLK cycles while
-    HREF is high), or the FIFOs fill and the captures overrun.
+    A pixel beat leaves one ``sync`` cycle after both words are at the heads
+    (registered output). A written word reaches its FIFO's output register after
+    the FIFO's two-flop Gray-pointer synchroniser, the registered Gray decode and
+    the RAM read (four ``sync`` clock edges), and the head one edge later: each
+    FIFO is followed by a two-word skid buffer, so that the pairing decision
+    steers registers next to it (up to two words per side wait there, outside
+    ``r_level``). The ``sync`` clock must pop faster than a camera writes (one
+    word per two PCLK cycles while HREF is high), or the FIFOs fill and the
+    captures overrun.
     """
 
     def __init__(self, width: int, height: int, fifo_depth: int = 1024, threshold: int = 64,
@@ -146,27 +150,25 @@ class StereoSynchronizer(wiring.Component):
         w, h, depth = self.width, self.height, self.fifo_depth
         layout = capture_word_layout()
 
-        heads = []
+        fifos = []
         for side, port, domain in (("left", self.i_left, self.left_domain),
                                    ("right", self.i_right, self.right_domain)):
-            # the head word comes from a register and r_en only shifts the output
-            # buffer: the marker checks that decide r_en reach no RAM address
-            # (AsyncFIFOBuffered's did: the limit of half the routed placements,
-            # see hdl/README.md)
             fifo = DualClockFIFO(width=layout.size, depth=depth, w_domain=domain)
             m.submodules[f"fifo_{side}"] = fifo
             m.d.comb += [fifo.w_data.eq(port.payload), fifo.w_en.eq(port.valid),
                          port.ready.eq(fifo.w_rdy)]
-            heads.append((fifo, layout(fifo.r_data)))
-        (fl, hl), (fr, hr) = heads
+            fifos.append(fifo)
+        fl, fr = fifos
 
-        # Raster position as registered flags (no counter comparison between a
-        # register and the FIFOs' read enables).
+        # The state, one register per state, and the position of the next
+        # pixel pair, as registered flags: the decision below reads registers
+        # only (no counter comparison, no state decoding on its way).
+        waiting, framing, flushing = (Signal(name=n, init=i) for n, i in (
+            ("waiting", 1), ("framing", 0), ("flushing", 0)))
         x = Signal(range(w))
         pixels_left = Signal(range(w * h))
-        at_x0 = Signal()
-        at_first = Signal()
-        at_last = Signal()
+        at_x0, at_first, at_last, x_last = (Signal(name=n) for n in (
+            "at_x0", "at_first", "at_last", "x_last"))
         flush_left = Signal(range(self.flush + 1))
         # FIFO levels (two clocks late from the FIFO, registered once more here):
         # that only delays a start or a drop; full is the RAM and the output
@@ -180,55 +182,107 @@ class StereoSynchronizer(wiring.Component):
             filled.eq((fl.r_level >= self.threshold) & (fr.r_level >= self.threshold)),
         ]
 
+        # Behind each FIFO a two-word skid buffer: the decision pops these (next
+        # to it), and only their registered fullness reaches the FIFO's read
+        # enable. With it, a registered flag says whether the head's markers
+        # fit the position of the next pair (`head_ok`).
+        sides = []
+        for side, fifo in (("left", fl), ("right", fr)):
+            skid = {
+                "valid": Signal(name=f"head_valid_{side}"),
+                "head": Signal(layout, name=f"head_{side}", reset_less=True),
+                "ok": Signal(name=f"head_ok_{side}"),
+                "spare_valid": Signal(name=f"spare_valid_{side}"),
+                "spare": Signal(layout, name=f"spare_{side}", reset_less=True),
+                "take": Signal(name=f"take_{side}"), "pop": Signal(name=f"pop_{side}"),
+                "fifo": fifo,
+            }
+            m.d.comb += [skid["take"].eq(fifo.r_rdy & ~skid["spare_valid"]),
+                         fifo.r_en.eq(skid["take"])]
+            sides.append(skid)
+        left, right = sides
+
+        # ---- the decision ----
+        sof_l = left["valid"] & left["head"].sof
+        sof_r = right["valid"] & right["head"].sof
+        # a side's head sof is stale when its FIFO is full or far ahead of the
+        # other, whose head is not yet a sof: that frame has no partner
+        stale_l = waiting & sof_l & ~sof_r & (full_l | ahead_l)
+        stale_r = waiting & sof_r & ~sof_l & (full_r | ahead_r)
+        start = Signal()
+        m.d.comb += start.eq(waiting & sof_l & sof_r & filled)
+        # a head whose markers do not fit (a sof too early, a sol too early or
+        # missing), or a full FIFO facing an empty one (that side overruns on its
+        # next word), aborts the frame
+        bad = ((left["valid"] & ~left["ok"]) | (right["valid"] & ~right["ok"])
+               | (full_l & ~right["valid"]) | (full_r & ~left["valid"]))
+        pair, abort = Signal(), Signal()
+        m.d.comb += [pair.eq(framing & left["valid"] & right["valid"] & ~bad),
+                     abort.eq(framing & bad)]
+        for skid, stale in ((left, stale_l), (right, stale_r)):
+            m.d.comb += skid["pop"].eq(
+                pair | (waiting & skid["valid"] & ~skid["head"].sof) | stale)
+
+        # ---- skid buffers and their head_ok flags ----
+        def fits(word, sol, sof):
+            return (word.sol == sol) & (word.sof == sof)
+
+        for skid in sides:
+            head, spare, fifo = skid["head"], skid["spare"], skid["fifo"]
+            incoming = layout(fifo.r_data)
+            with m.If(skid["pop"]):
+                with m.If(skid["spare_valid"]):
+                    m.d.sync += [head.eq(spare), skid["spare_valid"].eq(0)]
+                with m.Else():
+                    m.d.sync += [head.eq(fifo.r_data), skid["valid"].eq(skid["take"])]
+            with m.Elif(skid["take"]):
+                with m.If(skid["valid"]):
+                    m.d.sync += [spare.eq(fifo.r_data), skid["spare_valid"].eq(1)]
+                with m.Else():
+                    m.d.sync += [head.eq(fifo.r_data), skid["valid"].eq(1)]
+            # the next head against the next position: each candidate word
+            # against each candidate position, then chosen by the decision
+            next_word = Mux(skid["spare_valid"], spare.as_value(), fifo.r_data)
+            popped = layout(next_word)
+            with m.If(start):
+                m.d.sync += skid["ok"].eq(fits(head, 1, 1))
+            with m.Elif(pair):
+                m.d.sync += skid["ok"].eq(fits(popped, x_last, 0))
+            with m.Elif(skid["pop"]):
+                m.d.sync += skid["ok"].eq(fits(popped, at_x0, at_first))
+            with m.Elif(~skid["valid"]):
+                m.d.sync += skid["ok"].eq(fits(incoming, at_x0, at_first))
+
+        # ---- state, position, output ----
+        hl, hr = left["head"], right["head"]
         out = self.o_stream
         pay = out.payload
-        m.d.sync += [out.valid.eq(0), pay.eq(0)]
-
-        with m.FSM(init="WAIT"):
-            with m.State("WAIT"):
-                sof_l = fl.r_rdy & hl.sof
-                sof_r = fr.r_rdy & hr.sof
-                # a side's head sof is stale when its FIFO is full or far ahead of the
-                # other, whose head is not yet a sof: that frame has no partner
-                stale_l = sof_l & ~sof_r & (full_l | ahead_l)
-                stale_r = sof_r & ~sof_l & (full_r | ahead_r)
-                m.d.comb += [fl.r_en.eq((fl.r_rdy & ~hl.sof) | stale_l),
-                             fr.r_en.eq((fr.r_rdy & ~hr.sof) | stale_r)]
-                with m.If(stale_l | stale_r):
-                    m.d.sync += self.stale.eq(self.stale + 1)
-                with m.If(sof_l & sof_r & filled):
-                    m.d.sync += [x.eq(0), pixels_left.eq(w * h - 1), at_x0.eq(1),
-                                 at_first.eq(1), at_last.eq(w * h == 1)]
-                    m.next = "FRAME"
-
-            with m.State("FRAME"):
-                def markers_ok(head):
-                    return (head.sol == at_x0) & (head.sof == at_first)
-                bad = ((fl.r_rdy & ~markers_ok(hl)) | (fr.r_rdy & ~markers_ok(hr))
-                       # full facing empty: that side overruns on its next word
-                       | (full_l & ~fr.r_rdy) | (full_r & ~fl.r_rdy))
-                with m.If(bad):
-                    # abort: no padding, no flush; WAIT drops the damaged words and
-                    # keeps a head sof as the next frame's start
-                    m.d.sync += self.faults.eq(self.faults + 1)
-                    m.next = "WAIT"
-                with m.Elif(fl.r_rdy & fr.r_rdy):
-                    m.d.comb += [fl.r_en.eq(1), fr.r_en.eq(1)]
-                    m.d.sync += [
-                        out.valid.eq(1), pay.first.eq(at_first),
-                        pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
-                        pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
-                        x.eq(Mux(x == w - 1, 0, x + 1)), at_x0.eq(x == w - 1),
-                        at_first.eq(0), pixels_left.eq(pixels_left - 1),
-                        at_last.eq(pixels_left == 1),
-                    ]
-                    with m.If(at_last):
-                        m.d.sync += [self.frames.eq(self.frames + 1),
-                                     flush_left.eq(self.flush)]
-                        m.next = "FLUSH" if self.flush else "WAIT"
-
-            with m.State("FLUSH"):
-                m.d.sync += [out.valid.eq(1), flush_left.eq(flush_left - 1)]
-                with m.If(flush_left == 1):
-                    m.next = "WAIT"
+        m.d.sync += [out.valid.eq(pair | flushing), pay.eq(0)]
+        with m.If(stale_l | stale_r):
+            m.d.sync += self.stale.eq(self.stale + 1)
+        with m.If(start):
+            m.d.sync += [waiting.eq(0), framing.eq(1),
+                         x.eq(0), pixels_left.eq(w * h - 1), at_x0.eq(1), x_last.eq(0),
+                         at_first.eq(1), at_last.eq(w * h == 1)]
+        with m.If(abort):
+            # abort: no padding, no flush; WAIT drops the damaged words and
+            # keeps a head sof as the next frame's start
+            m.d.sync += [self.faults.eq(self.faults + 1), framing.eq(0), waiting.eq(1)]
+        with m.If(pair):
+            m.d.sync += [
+                pay.first.eq(at_first),
+                pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
+                pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
+                x.eq(Mux(x_last, 0, x + 1)), at_x0.eq(x_last), x_last.eq(x == w - 2),
+                at_first.eq(0), pixels_left.eq(pixels_left - 1),
+                at_last.eq(pixels_left == 1),
+            ]
+            with m.If(at_last):
+                m.d.sync += [self.frames.eq(self.frames + 1), flush_left.eq(self.flush),
+                             framing.eq(0)]
+                m.d.sync += (flushing.eq(1) if self.flush else waiting.eq(1))
+        with m.If(flushing):
+            m.d.sync += flush_left.eq(flush_left - 1)
+            with m.If(flush_left == 1):
+                m.d.sync += [flushing.eq(0), waiting.eq(1)]
         return m

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TrajectorySet", "load_trajectories", "save_trajectories"]
+__all__ = ["TrajectorySet", "load_trajectories", "save_trajectories", "save_npz"]
 
 
 @dataclass(frozen=True)
@@ -182,6 +182,13 @@ def save_trajectories(data: TrajectorySet, path, **extra) -> None:
     if data.subject is not None:
         arrays["subject"] = data.subject
     arrays.update(extra)
+    save_npz(path, arrays)
+
+
+def save_npz(path, arrays: dict) -> None:
+    """Write ``arrays`` as a compressed ``.npz`` atomically: a partial file
+    never stands where ``path`` was."""
+    path = Path(path)
     tmp = path.with_name(path.name + ".part.npz")
     try:
         np.savez_compressed(tmp, **arrays)

@@ -79,3 +79,22 @@ def test_a_grid_that_reaches_further_than_the_buffers_is_refused():
     assert grid.max_shift[1] == 4
     with pytest.raises(ValueError, match=r"max_shift_y must be in \[4, "):
         Rectifier(48, 24, grid, max_shift_y=3)
+
+
+@pytest.mark.parametrize("chunk_words", [32, 64])
+def test_banks_in_several_chunks_equal_the_model(monkeypatch, chunk_words):
+    """Row-buffer banks deeper than a chunk (small chunks, so a small frame has
+    several, the last one partial): the chunk multiplexers choose the right words."""
+    import hdl.rectify
+    monkeypatch.setattr(hdl.rectify, "CHUNK_WORDS", chunk_words)
+    w, h = 40, 18
+    grid = grid_of(rotation_homography(w, h, -1.5, 0.6, 0.8), w, h, 8, 5)
+    dut = Rectifier(w, h, grid, lanes=2)
+    depth = dut.rows // 2 * w // 2
+    assert depth > chunk_words and depth % chunk_words
+    rng = np.random.default_rng(chunk_words)
+    images = [rng.integers(0, 256, (h, w, 2)) for _ in range(2)]
+    for image, got in zip(images, run_rectifier(dut, images, seed=3)):
+        for lane in range(2):
+            expected = rectify(image[:, :, lane].astype(np.uint8), grid, "bilinear")
+            np.testing.assert_array_equal(got[:, :, lane], expected)

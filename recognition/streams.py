@@ -1,0 +1,236 @@
+"""Continuous gesture streams (issue 28; thesis §10.1, its first limitation):
+gestures one after another, joined by the movements a person makes between
+them, with the truth of where each gesture lies.
+
+A stream is built from any trajectory dataset (:class:`~recognition.datasets.
+TrajectorySet`: the `$1` strokes of one subject, pendigits of one writer, the
+synthetic corpus): each gesture keeps its own points; between two gestures the
+hand holds still for a pause (0 = none: it flows on), then travels from the
+end of one to the start of the next on a minimum-jerk path at the two
+gestures' own pace (their median step), so neither the speed nor a rest marks
+where a gesture begins.
+
+File layout (``.npz``, loadable with ``allow_pickle=False``)::
+
+    points       (P, 2) float   every stream's positions, concatenated
+    offsets      (S+1,) int     stream s is points[offsets[s]:offsets[s+1]]
+    subject      (S,) int       who made the stream's gestures
+    span_stream  (K,) int       the stream of each gesture
+    span_first   (K,) int       its first step, inside the stream
+    span_last    (K,) int       its last step (inclusive)
+    span_label   (K,) str       its class name
+
+Spans rise and never overlap within a stream.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .datasets import TrajectorySet, save_npz
+
+__all__ = ["GestureStream", "join_stream", "subject_streams", "save_streams", "load_streams",
+           "PAUSE_RANGE"]
+
+#: Largest pause a stream may hold between two gestures, steps.
+PAUSE_RANGE = (0, 10_000)
+
+
+@dataclass(frozen=True)
+class GestureStream:
+    """One continuous stream: ``points`` (T, 2), the position at every step;
+    ``spans`` (K, 2), the first and last step (inclusive) of each gesture,
+    rising and disjoint; ``labels`` (K,), their class names."""
+    points: np.ndarray
+    spans: np.ndarray
+    labels: np.ndarray
+    subject: int = 0
+
+    def __post_init__(self):
+        points = np.asarray(self.points, dtype=np.float64)
+        spans = np.asarray(self.spans).reshape(-1, 2)
+        labels = np.asarray(self.labels).reshape(-1)
+        if points.ndim != 2 or points.shape[1] != 2 or not np.isfinite(points).all():
+            raise ValueError(f"points must be a finite (T, 2) array, got shape {points.shape}")
+        if spans.dtype.kind not in "iu":
+            raise ValueError(f"spans must be integers, got dtype {spans.dtype}")
+        if labels.shape != (len(spans),) or labels.dtype.kind not in "UO":
+            raise ValueError(f"labels must be {len(spans)} strings (one per span), got shape "
+                             f"{labels.shape}")
+        _check_spans(spans, len(points), "spans")
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "spans", spans.astype(np.int64))
+        object.__setattr__(self, "labels", labels.astype(str))
+        object.__setattr__(self, "subject", int(self.subject))
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def gesture_mask(self) -> np.ndarray:
+        """(T,) bool: the steps inside a gesture."""
+        mask = np.zeros(len(self.points), bool)
+        for first, last in self.spans:
+            mask[first:last + 1] = True
+        return mask
+
+
+def _check_spans(spans: np.ndarray, length: int, name: str) -> None:
+    if len(spans) == 0:
+        return
+    if (spans[:, 0] < 0).any() or (spans[:, 1] >= length).any() \
+            or (spans[:, 1] < spans[:, 0]).any():
+        raise ValueError(f"{name} must lie in [0, {length - 1}] with first <= last")
+    if (spans[1:, 0] <= spans[:-1, 1]).any():
+        raise ValueError(f"{name} must rise and must not overlap")
+
+
+def _check_range(name: str, value, lo: int, hi: int) -> tuple[int, int]:
+    try:
+        a, b = (int(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be two integers MIN, MAX in [{lo}, {hi}], "
+                         f"got {value!r}") from None
+    if not lo <= a <= b <= hi:
+        raise ValueError(f"{name} must satisfy {lo} <= MIN <= MAX <= {hi}, got {a}, {b}")
+    return a, b
+
+
+def _pace(path: np.ndarray) -> float:
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if steps.size else 1.0
+
+
+def _transit(start: np.ndarray, end: np.ndarray, pace: float) -> np.ndarray:
+    """The steps strictly between ``start`` and ``end`` on a minimum-jerk path
+    whose mean step is about ``pace``."""
+    distance = float(np.linalg.norm(end - start))
+    # (a minimum-jerk path peaks at 1.875 times its mean speed)
+    steps = int(np.ceil(distance / max(pace, 1e-9)))
+    if steps <= 1:
+        return np.zeros((0, 2))
+    u = np.arange(1, steps) / steps
+    s = 10 * u ** 3 - 15 * u ** 4 + 6 * u ** 5
+    return start + s[:, None] * (end - start)
+
+
+def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
+                subject: int = 0) -> GestureStream:
+    """The gestures ``parts`` (each (T_i, 2)) in order, as one stream: after
+    each but the last a pause of ``pause`` = (MIN, MAX) steps (uniform; the
+    hand still at the gesture's end), then the transit to the next one's start
+    at the pace of the two gestures (their median step)."""
+    pause = _check_range("pause", pause, *PAUSE_RANGE)
+    parts = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in parts]
+    labels = [str(label) for label in labels]
+    if not parts or len(parts) != len(labels):
+        raise ValueError(f"parts and labels must be non-empty and as many, got {len(parts)} "
+                         f"and {len(labels)}")
+    pieces, spans, at = [], [], 0
+    for k, part in enumerate(parts):
+        pieces.append(part)
+        spans.append((at, at + len(part) - 1))
+        at += len(part)
+        if k + 1 < len(parts):
+            hold = int(rng.integers(pause[0], pause[1] + 1))
+            between = [np.repeat(part[-1:], hold, axis=0),
+                       _transit(part[-1], parts[k + 1][0],
+                                0.5 * (_pace(part) + _pace(parts[k + 1])))]
+            for piece in between:
+                pieces.append(piece)
+                at += len(piece)
+    return GestureStream(np.concatenate(pieces), np.array(spans, np.int64),
+                         np.array(labels), subject)
+
+
+def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
+                    pause=(0, 15)) -> list[GestureStream]:
+    """Every subject's trajectories in a random order, ``per_stream`` to a stream
+    (the last one of a subject may be shorter), joined by :func:`join_stream`.
+    ``data`` needs subjects."""
+    if data.subject is None:
+        raise ValueError("the dataset has no subject (or writer) key: streams are per person")
+    if isinstance(per_stream, bool) or not isinstance(per_stream, (int, np.integer)) \
+            or not 1 <= per_stream <= 10_000:
+        raise ValueError(f"per_stream must be an integer in [1, 10000], got {per_stream!r}")
+    rng = np.random.default_rng(seed)
+    streams = []
+    for subject in np.unique(data.subject):
+        order = rng.permutation(np.flatnonzero(data.subject == subject))
+        for start in range(0, len(order), per_stream):
+            chosen = order[start:start + per_stream]
+            streams.append(join_stream([data.trajectory(i) for i in chosen],
+                                       data.label[chosen], rng, pause=pause,
+                                       subject=int(subject)))
+    return streams
+
+
+def save_streams(streams, path) -> None:
+    """Write ``streams`` atomically (the layout of the module docstring)."""
+    streams = list(streams)
+    lengths = [len(s) for s in streams]
+    spans = [s.spans for s in streams]
+    arrays = {
+        "points": (np.concatenate([s.points for s in streams]) if streams
+                   else np.zeros((0, 2))).astype(np.float32),
+        "offsets": np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        "subject": np.array([s.subject for s in streams], np.int64),
+        "span_stream": np.concatenate([np.full(len(sp), k, np.int64)
+                                       for k, sp in enumerate(spans)] or [np.zeros(0, np.int64)]),
+        "span_first": np.concatenate([sp[:, 0] for sp in spans] or [np.zeros(0, np.int64)]),
+        "span_last": np.concatenate([sp[:, 1] for sp in spans] or [np.zeros(0, np.int64)]),
+        "span_label": np.concatenate([s.labels for s in streams] or [np.zeros(0, str)]),
+    }
+    save_npz(path, arrays)
+
+
+_KEYS = ("points", "offsets", "subject", "span_stream", "span_first", "span_last", "span_label")
+
+
+def load_streams(path) -> list[GestureStream]:
+    """Read and validate a stream file; ``ValueError`` (one line) names the key."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such stream file: {path}")
+    import zipfile
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in _KEYS if k not in data.files]
+            if missing:
+                raise ValueError(f"missing key(s) {', '.join(missing)} (need "
+                                 f"{', '.join(_KEYS)})")
+            a = {k: data[k] for k in _KEYS}
+    except (OSError, EOFError, zipfile.BadZipFile, AttributeError) as exc:
+        raise ValueError(f"{path}: not a readable stream file ({exc})") from None
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    offsets = a["offsets"]
+    n = len(offsets) - 1
+    try:
+        if offsets.ndim != 1 or n < 0 or offsets.dtype.kind not in "iu" or offsets[0] != 0 \
+                or offsets[-1] != len(a["points"]) or (np.diff(offsets) < 1).any():
+            raise ValueError(f"offsets must rise strictly from 0 to len(points) = "
+                             f"{len(a['points'])}")
+        if a["subject"].shape != (n,) or a["subject"].dtype.kind not in "iu":
+            raise ValueError(f"subject must be {n} integers, one per stream")
+        k = len(a["span_label"])
+        for key in ("span_stream", "span_first", "span_last"):
+            if a[key].shape != (k,) or a[key].dtype.kind not in "iu":
+                raise ValueError(f"{key} must be {k} integers, one per span_label")
+        if k and (a["span_stream"].min() < 0 or a["span_stream"].max() >= n):
+            raise ValueError(f"span_stream must be in [0, {n - 1}]")
+        streams = []
+        for s in range(n):
+            mine = a["span_stream"] == s
+            spans = np.stack([a["span_first"][mine], a["span_last"][mine]], axis=1)
+            try:
+                streams.append(GestureStream(a["points"][offsets[s]:offsets[s + 1]], spans,
+                                             a["span_label"][mine], int(a["subject"][s])))
+            except ValueError as exc:
+                raise ValueError(f"stream {s}: {exc}".replace("spans", "span_first/span_last")
+                                 ) from None
+        return streams
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None

@@ -1,0 +1,105 @@
+"""recognition/streams.py: gestures joined into continuous streams (issue 28),
+on real $1 strokes: the truth spans hold the gestures' own points, the pauses
+and transits lie between them at the gestures' pace, one subject per stream,
+the file round trip and its validation."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from recognition.datasets import load_trajectories
+from recognition.streams import (GestureStream, join_stream, load_streams, save_streams,
+                                 subject_streams)
+
+DOLLAR = Path(__file__).resolve().parent.parent / "data/gestures/dollar1_unistroke/dollar1_unistroke.npz"
+
+
+@pytest.fixture(scope="module")
+def dollar():
+    return load_trajectories(DOLLAR)
+
+
+def test_spans_hold_the_gestures_and_the_gaps_are_pauses_and_transits(dollar):
+    parts = [dollar.trajectory(i) for i in (0, 500, 1000, 1500)]
+    labels = [dollar.label[i] for i in (0, 500, 1000, 1500)]
+    stream = join_stream(parts, labels, np.random.default_rng(1), pause=(3, 6))
+    assert list(stream.labels) == labels
+    for (first, last), part in zip(stream.spans, parts):
+        np.testing.assert_array_equal(stream.points[first:last + 1], part)
+    assert stream.spans[0, 0] == 0 and stream.spans[-1, 1] == len(stream) - 1
+    for k in range(len(parts) - 1):
+        gap = stream.points[stream.spans[k, 1]:stream.spans[k + 1, 0] + 1]
+        steps = np.linalg.norm(np.diff(gap, axis=0), axis=1)
+        held = int(np.argmax(steps > 0))               # the pause: the hand still
+        assert 3 <= held <= 6
+        paces = [np.median(s[s > 0]) for s in (np.linalg.norm(np.diff(p, axis=0), axis=1)
+                                                 for p in parts[k:k + 2])]
+        # the transit at the gestures' pace: no jump
+        assert steps.max() <= 2 * np.mean(paces) + 1e-9
+
+
+def test_no_pause_flows_on(dollar):
+    parts = [dollar.trajectory(i) for i in (10, 20, 30)]
+    stream = join_stream(parts, ["a", "b", "c"], np.random.default_rng(0), pause=(0, 0))
+    gaps = stream.spans[1:, 0] - stream.spans[:-1, 1] - 1
+    steps = np.linalg.norm(np.diff(stream.points, axis=0), axis=1)
+    assert (steps[stream.spans[0, 1]:stream.spans[1, 0]] > 0).all()
+    assert len(stream) == sum(len(p) for p in parts) + gaps.sum()
+
+
+def test_streams_per_subject_cover_every_trajectory_once(dollar):
+    data = dollar.subset(np.flatnonzero(np.isin(dollar.subject, [2, 3]))[::8])
+    streams = subject_streams(data, 8, seed=4)
+    assert sum(len(s.spans) for s in streams) == len(data)
+    assert all(len(s.spans) <= 8 for s in streams)
+    for subject in (2, 3):
+        mine = [s for s in streams if s.subject == subject]
+        assert sorted(np.concatenate([s.labels for s in mine]).tolist()) == \
+            sorted(data.label[data.subject == subject].tolist())
+    again = subject_streams(data, 8, seed=4)
+    assert all(np.array_equal(a.points, b.points) for a, b in zip(streams, again))
+    other = subject_streams(data, 8, seed=5)
+    assert not all(np.array_equal(a.labels, b.labels) for a, b in zip(streams, other))
+
+
+def test_file_round_trip_and_bad_files(tmp_path, dollar):
+    streams = subject_streams(dollar.subset(np.arange(0, 3360, 97)), 5, seed=2)
+    path = tmp_path / "s.npz"
+    save_streams(streams, path)
+    back = load_streams(path)
+    assert len(back) == len(streams)
+    for a, b in zip(streams, back):
+        np.testing.assert_allclose(a.points, b.points, atol=1e-3)
+        assert np.array_equal(a.spans, b.spans) and list(a.labels) == list(b.labels)
+        assert a.subject == b.subject
+    with np.load(path) as f:
+        arrays = dict(f)
+    arrays["span_last"] = arrays["span_last"].copy()
+    arrays["span_last"][1] = arrays["span_first"][2] + 1      # overlaps the next span
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **arrays)
+    with pytest.raises(ValueError, match="span_first/span_last must rise"):
+        load_streams(bad)
+    del arrays["span_label"]
+    np.savez(bad, **arrays)
+    with pytest.raises(ValueError, match="missing key.*span_label"):
+        load_streams(bad)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"pause": (5, 2)}, "pause must satisfy"),
+    ({"pause": "x"}, "pause must be two integers"),
+])
+def test_bad_arguments_name_themselves(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        join_stream([np.zeros((3, 2))], ["a"], np.random.default_rng(0), **kwargs)
+
+
+def test_bad_streams_are_refused():
+    with pytest.raises(ValueError, match="spans must rise"):
+        GestureStream(np.zeros((10, 2)), [[0, 4], [3, 6]], ["a", "b"])
+    with pytest.raises(ValueError, match="labels must be 1 strings"):
+        GestureStream(np.zeros((10, 2)), [[0, 4]], ["a", "b"])
+    with pytest.raises(ValueError, match="per_stream"):
+        from recognition.datasets import TrajectorySet
+        subject_streams(TrajectorySet.from_list([np.zeros((2, 2))], ["a"], [1]), 0)
