@@ -71,8 +71,8 @@ def timing():
     }
 
 
-#: Run in a worktree of the baseline commit: its pipeline harness on the saved
-#: clip, cycles per CPU-second of the harness process (as verilator_clip).
+#: Run in a worktree of the baseline commit: its pipeline harness once on the
+#: saved clip, the CPU seconds of the harness process (as verilator_clip).
 _BASELINE_SCRIPT = """
 import json, sys, warnings
 import numpy as np
@@ -81,12 +81,9 @@ from hdl.place_route import child_cpu_seconds
 from verif.pipeline import build_pipeline, run_clip_hardware
 left, right = np.load(sys.argv[1]), np.load(sys.argv[2])
 build_pipeline(left.shape[2] // 2, left.shape[1])
-runs = []
-for _ in range(int(sys.argv[3])):
-    cpu = child_cpu_seconds()
-    hw, stats = run_clip_hardware(left, right)
-    runs.append(child_cpu_seconds() - cpu)
-print(json.dumps({"cycles": stats["cycles"], "cpu": runs,
+cpu = child_cpu_seconds()
+hw, stats = run_clip_hardware(left, right)
+print(json.dumps({"cycles": stats["cycles"], "cpu": child_cpu_seconds() - cpu,
                   "centroid": hw.centroid.tolist(), "flag": hw.flag.tolist()}))
 """
 
@@ -121,7 +118,7 @@ class BaselineClip:
         tmp = Path(self._tmp.name)
         t = time.perf_counter()
         proc = subprocess.run([sys.executable, "-c", _BASELINE_SCRIPT, str(tmp / "left.npy"),
-                               str(tmp / "right.npy"), "1"],
+                               str(tmp / "right.npy")],
                               cwd=self._tree, env=self._env, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"baseline {self.rev} failed:\n{proc.stderr[-3000:]}")
@@ -129,8 +126,8 @@ class BaselineClip:
             self.build_and_first_run_seconds = round(time.perf_counter() - t, 1)
         got = json.loads(proc.stdout.strip().splitlines()[-1])
         self.results.append(got)
-        self.runs.append(got["cpu"][0])
-        return got["cpu"][0]
+        self.runs.append(got["cpu"])
+        return got["cpu"]
 
     def summary(self, ref, frames: int) -> dict:
         got = self.results[-1]

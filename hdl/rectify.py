@@ -44,7 +44,9 @@ MAX_SHIFT_Y = (OVERRUN_ROWS - 6) // 2
 
 #: Words of a row-buffer bank's memory chunk: one block deep at the widths
 #: the blocks offer for 8 to 24-bit words (ECP5 DP16KD 2048 x 9, Cyclone V M10K
-#: 2048 x 5), so a chunk's output needs no multiplexer before its register.
+#: 2048 x 5), so a full chunk's output needs no multiplexer before its
+#: register. (A bank's last, partial chunk may be mapped otherwise: yosys built
+#: the default rig's 1,024-word one of two ECP5 blocks in depth; hdl/README.)
 CHUNK_WORDS = 2048
 
 
@@ -372,7 +374,7 @@ class Rectifier(wiring.Component):
             same_row.append(same)
         # each bank's slot; its row's base address; the read
         slot_bottom = Mux(slot_top == rows - 1, 0, slot_top + 1)
-        chunk_of = [None] * 4
+        chunk_of = []
         for b in range(4):
             slot_bank = Signal(slot_bits, name=f"slot8_{b}")
             m.d.sync += slot_bank.eq(Mux(inside[b], Mux(same_row[b], slot_top, slot_bottom),
@@ -383,7 +385,7 @@ class Rectifier(wiring.Component):
             addr = (row_base + col_bank)[:depth_bits]
             for port in banks[b]:
                 m.d.comb += port.addr.eq(addr[:chunk_bits])
-            chunk_of[b] = reg(addr[chunk_bits:], f"chunk11_{b}", 2)
+            chunk_of.append(reg(addr[chunk_bits:], f"chunk11_{b}", 2))
         # each chunk's word registered; then the chunk's word of each bank to
         # its tap (00, 10, 01, 11: x, y offsets), 0 outside; the weights
         words = []

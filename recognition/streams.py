@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.gesture_shapes import minimum_jerk
+
 from .datasets import TrajectorySet, save_npz
 
 __all__ = ["GestureStream", "join_stream", "subject_streams", "save_streams", "load_streams",
@@ -68,13 +70,6 @@ class GestureStream:
     def __len__(self) -> int:
         return len(self.points)
 
-    def gesture_mask(self) -> np.ndarray:
-        """(T,) bool: the steps inside a gesture."""
-        mask = np.zeros(len(self.points), bool)
-        for first, last in self.spans:
-            mask[first:last + 1] = True
-        return mask
-
 
 def _check_spans(spans: np.ndarray, length: int, name: str) -> None:
     if len(spans) == 0:
@@ -111,8 +106,7 @@ def _transit(start: np.ndarray, end: np.ndarray, pace: float) -> np.ndarray:
     steps = int(np.ceil(distance / max(pace, 1e-9)))
     if steps <= 1:
         return np.zeros((0, 2))
-    u = np.arange(1, steps) / steps
-    s = 10 * u ** 3 - 15 * u ** 4 + 6 * u ** 5
+    s = minimum_jerk(np.arange(1, steps) / steps)
     return start + s[:, None] * (end - start)
 
 
@@ -170,18 +164,18 @@ def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
 def save_streams(streams, path) -> None:
     """Write ``streams`` atomically (the layout of the module docstring)."""
     streams = list(streams)
-    lengths = [len(s) for s in streams]
-    spans = [s.spans for s in streams]
+
+    def joined(parts, empty):
+        return np.concatenate(parts) if parts else empty
+
+    spans = joined([s.spans for s in streams], np.zeros((0, 2), np.int64))
     arrays = {
-        "points": (np.concatenate([s.points for s in streams]) if streams
-                   else np.zeros((0, 2))).astype(np.float32),
-        "offsets": np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        "points": joined([s.points for s in streams], np.zeros((0, 2))).astype(np.float32),
+        "offsets": np.concatenate([[0], np.cumsum([len(s) for s in streams])]).astype(np.int64),
         "subject": np.array([s.subject for s in streams], np.int64),
-        "span_stream": np.concatenate([np.full(len(sp), k, np.int64)
-                                       for k, sp in enumerate(spans)] or [np.zeros(0, np.int64)]),
-        "span_first": np.concatenate([sp[:, 0] for sp in spans] or [np.zeros(0, np.int64)]),
-        "span_last": np.concatenate([sp[:, 1] for sp in spans] or [np.zeros(0, np.int64)]),
-        "span_label": np.concatenate([s.labels for s in streams] or [np.zeros(0, str)]),
+        "span_stream": np.repeat(np.arange(len(streams)), [len(s.spans) for s in streams]),
+        "span_first": spans[:, 0], "span_last": spans[:, 1],
+        "span_label": joined([s.labels for s in streams], np.zeros(0, str)),
     }
     save_npz(path, arrays)
 

@@ -147,7 +147,7 @@ def gesture_id(name: str) -> int:
     return GESTURE_NAMES.index(check_gesture_name(name))
 
 
-def _minimum_jerk(u: np.ndarray) -> np.ndarray:
+def minimum_jerk(u: np.ndarray) -> np.ndarray:
     """Minimum-jerk position profile: 0 -> 1 with zero speed and acceleration at both ends."""
     return u * u * u * (10.0 + u * (-15.0 + 6.0 * u))
 
@@ -216,7 +216,7 @@ def gesture_path(name: str, num_points: int, *, aspect: float = 1.0,
     index = np.clip(np.searchsorted(bounds, times, side="right") - 1, 0, len(strokes) - 1)
     local = np.clip((times - bounds[index]) / (bounds[index + 1] - bounds[index]), 0.0, 1.0)
     if speed_profile == "smooth":
-        local = _minimum_jerk(local)
+        local = minimum_jerk(local)
 
     path = np.empty((num_points, 2))
     for k, (at, _) in enumerate(strokes):
