@@ -9,7 +9,7 @@ from amaranth.hdl import Signal
 from sim.model.validation import check_int, check_odd_window
 
 __all__ = ["check_int", "check_odd_window", "check_geometry", "check_domain", "delay", "replicate",
-           "register_input",
+           "register_input", "times_constant",
            "KEEP_REGISTER",
            "bits_for", "WIDTH_RANGE", "HEIGHT_RANGE", "PIXEL_BITS_RANGE"]
 
@@ -70,6 +70,20 @@ def replicate(m, value, copies: int, name: str = "rep", init: int = 0, *,
         m.d.sync += reg.eq(value)
         regs.append(reg)
     return regs
+
+
+def times_constant(value, factor: int):
+    """``value * factor`` for a constant ``factor`` >= 0, as a sum of shifted
+    copies of ``value``: synthesis maps a product by a constant to a DSP block,
+    whose routing in and out (routed on an ECP5: 3.6 + 3.1 + 3.4 ns) cost more
+    than a cycle; two or three shifted terms are one carry chain each."""
+    if factor < 0:
+        raise ValueError(f"factor must be >= 0, got {factor}")
+    terms = [value << i for i in range(factor.bit_length()) if factor >> i & 1]
+    total = terms[0] if terms else value * 0
+    for term in terms[1:]:
+        total = total + term
+    return total
 
 
 def register_input(m, i_stream, copies: int, name: str):

@@ -12,9 +12,15 @@ frame starts from 0, so frames never mix.
 
 A pixel with x < d has no right partner: every term of its column is
 ``no_match_cost``, so its column sum is ``no_match_cost`` times the number of
-window rows inside the frame, one register for the whole row. Disparity d
-therefore keeps only the ``width - d`` columns x >= d, in a memory of its own
-(address x - d): ``D * width - D * (D - 1) / 2`` words in all.
+window rows inside the frame, one register for the whole row (the memory's
+sum there is kept but never output).
+
+The sums of :attr:`ColumnSum.GROUP` disparities share one memory word at
+address x, so a group has one address register instead of a counter per
+disparity (x - d in a memory of ``width - d`` words, until issue 27): the
+same M10K count at 640x480 (8 memories of 60 bits against 48 of 10), 4 % more
+bits (``width * D`` sums, eq. 20's term, against the triangle without the
+x < d columns) and about 1,400 flip-flops fewer.
 """
 from __future__ import annotations
 
@@ -22,7 +28,8 @@ from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import bits_for, check_geometry, check_int, check_odd_window, delay, replicate
+from ._util import (KEEP_REGISTER, bits_for, check_geometry, check_int, check_odd_window, delay,
+                    replicate)
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -37,9 +44,8 @@ def column_sum_timing(width: int, hamming_window: int) -> StageTiming:
 def column_sum_memory_bits(width: int, hamming_window: int, max_disparity: int,
                            max_term: int) -> int:
     """Bits of the memories of a :class:`ColumnSum` (its ``memory_bits``):
-    ``width - d`` column sums for disparity d."""
-    return (sum(width - d for d in range(max_disparity))
-            * bits_for(hamming_window * max_term))
+    ``width`` column sums per disparity (eq. 20's ``width * D * bits``)."""
+    return width * max_disparity * bits_for(hamming_window * max_term)
 
 
 class ColumnSum(wiring.Component):
@@ -65,18 +71,21 @@ class ColumnSum(wiring.Component):
     o_stream : payload ``{first, real, csum}``: ``csum[d]`` = C_d(x, y' - r),
         the column sum of position (x, y' - r); ``lag`` = r * width, ``cycles`` = 4.
 
-    Cycles: the input is registered and the beat copied once per :attr:`GROUP`
-    disparities and once per position counter (1), each copy steers its group's
-    address counters, the memories read every cycle (2), the read words are
-    registered (3), then added to the difference of the terms and written back
-    (4). So no beat net reaches all 48 memories or every counter (routed on an
+    Cycles: the input is registered, and the beat and the frame start are
+    copied once per :attr:`GROUP` disparities (and the beat once per position
+    counter) (1); each group's copies steer its address register and partner
+    flags, its memory is read every cycle (2), the read word is registered
+    (3), then its sums are added to the differences of the terms and written
+    back (4). So no beat or frame-start net reaches every memory (routed on an
     ECP5 such nets cost up to 13 ns), and a memory's output (4.3 ns from the
-    clock on an ECP5) has a cycle to itself before the adder.
+    clock on an ECP5) has a cycle to itself before the adders.
     """
 
     cycles = 4
-    #: disparities per copy of the beat
-    GROUP = 8
+    #: disparities per memory word and per copy of the beat and the frame
+    #: start: six 10-bit sums (the thesis parameters) fill a 64-bit word, one
+    #: machine word for a simulator, four ECP5 blocks 18 bits wide
+    GROUP = 6
 
     def __init__(self, width: int, height: int, hamming_window: int, max_disparity: int,
                  max_term: int, no_match_cost: int = 0):
@@ -115,27 +124,51 @@ class ColumnSum(wiring.Component):
         # disparities, one per position counter, one for the rest), so the
         # input's valid steers registers only; the positions count the copied
         # beat, one cycle late, which the terms' wait for the read absorbs.
-        beats = replicate(m, beat, -(-nd // self.GROUP) + 3, "beat")
+        groups = -(-nd // self.GROUP)
+        spans = [range(g * self.GROUP, min(nd, (g + 1) * self.GROUP)) for g in range(groups)]
+        beats = replicate(m, beat, groups + 3, "beat")
         beat_1, pos_beat_1, out_beat_1 = beats[-3:]
         first_1 = delay(m, p.first, 1, "first1")
-        p_1 = data.View(self.i_stream.payload.shape(), delay(m, p.as_value(), 1, "terms",
-                                                             reset_less=True))
+        # the terms registered per group (a simulator then slices each term out
+        # of a word of a few, not out of one of all 2 D)
+        tb = self.term_bits
+        enters, leaves = ([delay(m, terms.as_value()[ds.start * tb:ds.stop * tb], 1,
+                                 f"terms_{kind}_{g}", reset_less=True)
+                           for g, ds in enumerate(spans)]
+                          for kind, terms in (("enter", p.enter), ("leave", p.leave)))
         pos = RasterPosition(w, h, 0, "row").attach(m, pos_beat_1, first_1)
         out_pos = RasterPosition(w, h, self.lag, "out").attach(m, out_beat_1, first_1)
-        enter_ok = pos.registered(lambda x, y: (y >= 0) & (y < h), "enter")
-        leave_ok = pos.registered(lambda x, y: (y >= wh) & (y < h + wh), "leave")
+        def entering(x, y):
+            return (y >= 0) & (y < h)
+
+        def leaving(x, y):
+            return (y >= wh) & (y < h + wh)
+
+        enter_ok = pos.registered(entering, "enter")
+        leave_ok = pos.registered(leaving, "leave")
+        # the copies of the frame start, one per group: each group's flags (the
+        # terms' masks, the partner flags, the address) load from their own
+        # (one register steering the masks of all 2 D terms was the routed limit)
+        group_firsts = replicate(m, p.first, groups, "first_group")
+        group_enter_ok, group_leave_ok = (
+            [pos.registered(cond, f"{name}_{g}", first=group_firsts[g], beat=beats[g],
+                            attrs=KEEP_REGISTER) for g in range(groups)]
+            for cond, name in ((entering, "enter"), (leaving, "leave")))
         restart = pos.registered(lambda x, y: y <= 0, "restart")
 
         # Cycle 2: the difference of the entering and leaving terms.
+        # (waiting for the read as one word per group: a simulator copies it in one go)
+        db = tb + 1
         deltas = []
-        for d in range(nd):
-            delta = Signal(signed(self.term_bits + 1), name=f"delta_{d}", reset_less=True)
-            m.d.sync += delta.eq(Mux(enter_ok, p_1.enter[d], 0) - Mux(leave_ok, p_1.leave[d], 0))
-            deltas.append(delta)
-        # (waiting for the read as one word: a simulator copies it in one go)
-        waited = delay(m, Cat(*deltas), 1, "deltas", reset_less=True)
-        db = self.term_bits + 1
-        deltas = [waited[d * db:(d + 1) * db].as_signed() for d in range(nd)]
+        for g, ds in enumerate(spans):
+            group = []
+            for k, d in enumerate(ds):
+                delta = Signal(signed(db), name=f"delta_{d}", reset_less=True)
+                m.d.sync += delta.eq(Mux(group_enter_ok[g], enters[g][k * tb:(k + 1) * tb], 0)
+                                     - Mux(group_leave_ok[g], leaves[g][k * tb:(k + 1) * tb], 0))
+                group.append(delta)
+            waited = delay(m, Cat(*group), 1, f"deltas_{g}", reset_less=True)
+            deltas += [waited[k * db:(k + 1) * db].as_signed() for k in range(len(ds))]
         restart_3 = delay(m, restart, 2, "restart")
         valid_4 = delay(m, beat_1, 3, "valid")
         # The column sum of the positions without partner: no_match_cost per row inside.
@@ -146,34 +179,34 @@ class ColumnSum(wiring.Component):
                                     - Mux(leave_ok, nmc, 0))
         # (as it stood after this beat: the next row's may already be counted)
         no_match_4 = delay(m, no_match, 2, "no_match")
-        partners_1 = pos.thermometer(nd, "partner")                   # bit d: x >= d
+        # bit d: x >= d, each GROUP's bits reset by its copy of first
+        partners_1 = pos.thermometer(nd, "partner", firsts=group_firsts)
         partners_4 = delay(m, partners_1, 3, "partner4")
-        x_1 = pos.x
-        # Cycles 2-4: read (every cycle), register, add and write back.
-        for d in range(nd):
-            m.submodules[f"mem_{d}"] = mem = memory.Memory(shape=cb, depth=w - d, init=[])
+        # Cycles 2-4, per GROUP disparities: one memory word of their sums at
+        # address x, read every cycle, registered, added to and written back;
+        # the address is the group's own copy of x (its beat, its first).
+        for g, ds in enumerate(spans):
+            m.submodules[f"mem_{g}"] = mem = memory.Memory(shape=cb * len(ds), depth=w,
+                                                           init=[])
             rd = mem.read_port()
             wr = mem.write_port()
-            addr = Signal(range(w - d), name=f"addr_{d}")
-            if d:
-                # x - d as its own counter (+1 per beat from x = d on): an incrementer
-                # and a multiplexer in front of the register, no subtractor; it
-                # moves on the copied beat, so in cycle 1 it holds the beat's address
-                with m.If(beats[d // self.GROUP]):
-                    m.d.sync += addr.eq(Mux(partners_1[d], addr + 1, 0))
-            else:
-                m.d.comb += addr.eq(x_1)
+            addr = pos.registered(lambda x, y: x, f"addr_{g}", range(w),
+                                  first=group_firsts[g], beat=beats[g], attrs=KEEP_REGISTER)
             m.d.comb += [rd.addr.eq(addr), rd.en.eq(1)]
-            stored = Signal(cb, name=f"stored_{d}", reset_less=True)
+            stored = Signal(cb * len(ds), name=f"stored_{g}", reset_less=True)
             m.d.sync += stored.eq(rd.data)
-            partner_4 = partners_4[d] if d else 1
-            s_new = Signal(cb, name=f"csum_{d}", reset_less=True)
-            m.d.sync += s_new.eq(Mux(restart_3, 0, stored) + deltas[d])
+            sums = []
+            for k, d in enumerate(ds):
+                s_new = Signal(cb, name=f"csum_{d}", reset_less=True)
+                m.d.sync += s_new.eq(Mux(restart_3, 0, stored[k * cb:(k + 1) * cb]) + deltas[d])
+                sums.append(s_new)
+                # a sum at x < d is written but never output: no partner there
+                m.d.comb += self.o_stream.payload.csum[d].eq(
+                    Mux(partners_4[d], s_new, no_match_4) if d else s_new)
             m.d.comb += [
-                wr.addr.eq(delay(m, addr, 3, f"waddr_{d}", reset_less=True)),
-                wr.en.eq(valid_4 & partner_4),
-                wr.data.eq(s_new),
-                self.o_stream.payload.csum[d].eq(Mux(partner_4, s_new, no_match_4) if d else s_new),
+                wr.addr.eq(delay(m, addr, 3, f"waddr_{g}", reset_less=True)),
+                wr.en.eq(delay(m, beats[g], 3, f"wen_{g}")),
+                wr.data.eq(Cat(*sums)),
             ]
         m.d.comb += [
             self.o_stream.valid.eq(valid_4),

@@ -11,7 +11,7 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import check_int
+from ._util import check_int, register_input
 
 __all__ = ["MovingAverage", "COORD_BITS_RANGE", "WINDOW_RANGE", "FRAC_BITS_RANGE"]
 
@@ -46,10 +46,13 @@ class MovingAverage(wiring.Component):
     Attributes
     ----------
     cycles : int
-        1 (the output is wired from the state registers).
+        2: the input is registered, with a copy of its valid per axis and one
+        for the rest (the centroid's output valid reached every history
+        register of both axes: 77 sinks, 8 ns routed on an ECP5), and the
+        output is wired from the state registers.
     """
 
-    cycles = 1
+    cycles = 2
 
     def __init__(self, coord_bits: int = 10, window: int = 4, frac_bits: int = 8):
         self.coord_bits = check_int("coord_bits", coord_bits, *COORD_BITS_RANGE)
@@ -76,13 +79,13 @@ class MovingAverage(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         cb, n = self.coord_bits, self.window
-        p = self.i_stream.payload
-        update = self.i_stream.valid & p.valid
+        p, beats = register_input(m, self.i_stream, 3, "input")
         primed = Signal()
-        with m.If(update):
+        with m.If(beats[2] & p.valid):
             m.d.sync += primed.eq(1)
         out = self.o_stream.payload
-        for axis in ("x", "y"):
+        for axis, beat in zip(("x", "y"), beats):
+            update = beat & p.valid
             new = getattr(p, axis)
             history = [Signal(cb, name=f"{axis}_hist{k}") for k in range(n)]
             total = Signal(cb + self.shift, name=f"{axis}_sum")  # at most window * (2**cb - 1)
@@ -93,5 +96,5 @@ class MovingAverage(wiring.Component):
                                          new << self.shift))
             m.d.comb += getattr(out, axis).eq(self._scaled(total))
         m.d.comb += out.primed.eq(primed)
-        m.d.sync += self.o_stream.valid.eq(self.i_stream.valid)
+        m.d.sync += self.o_stream.valid.eq(beats[2])
         return m

@@ -69,7 +69,8 @@ class RasterPosition:
         self._m, self._beat, self._first = m, beat, first
         return self
 
-    def registered(self, cond, name: str = "flag", shape=1, *, first=None, attrs=None):
+    def registered(self, cond, name: str = "flag", shape=1, *, first=None, beat=None,
+                   attrs=None):
         """``cond(x, y)`` of the current position from a register: evaluated for
         the next position on each beat (and for the first position at the
         frame start), so only a multiplexer lies between the register and the
@@ -77,8 +78,8 @@ class RasterPosition:
 
         A flag that steers many registers is built once per group, each with
         ``attrs`` (:data:`hdl._util.KEEP_REGISTER`) and its own copy of the
-        frame-start ``first`` (equal to the one given to :meth:`attach`), so no
-        single net reaches them all."""
+        frame-start ``first`` (equal to the one given to :meth:`attach`) and
+        of the ``beat``, so no single net reaches them all."""
         m = self._m
         reg = Signal(shape, name=f"{self.name}_{name}", attrs=attrs or {})
         first = self._first if first is None else first
@@ -96,18 +97,28 @@ class RasterPosition:
         next_row = cond(0, self._y1)
         stay = cond(0, self._y)
         nxt = Mux(self._wrap, Mux(self._sat, stay, next_row), same_row)
-        with m.If(self._beat):
+        with m.If(self._beat if beat is None else beat):
             m.d.sync += reg.eq(Mux(self._first, const(cond(nx0, ny0)), nxt))
         return Mux(first, const(cond(x0, y0)), reg)
 
-    def thermometer(self, count: int, name: str = "thermo"):
+    def thermometer(self, count: int, name: str = "thermo", *, firsts=None):
         """``count`` bits, bit k = (x >= k) for the current position, from a
         shift register (a 1 enters per beat, the row start resets it): one LUT
-        level instead of a comparator per k, which synthesis tends to chain."""
+        level instead of a comparator per k, which synthesis tends to chain.
+
+        ``firsts``: copies of the frame-start flag (the one :meth:`attach` was
+        given, registered apart), each steering an equal run of the bits in
+        order, so that no one flag net reaches all ``count`` bits' users."""
         m = self._m
         reg = Signal(count, name=f"{self.name}_{name}", init=1)
         start = int(min(self.x0 + 1, count) and (1 << min(self.x0 + 1, count)) - 1)
-        current = Mux(self._first, start, reg)
+        if firsts is None:
+            current = Mux(self._first, start, reg)
+        else:
+            run = -(-count // len(firsts))
+            current = Cat(*(Mux(first, start >> lo, reg[lo:lo + run]
+                                )[:min(run, count - lo)]
+                            for lo, first in zip(range(0, count, run), firsts)))
         row_end = self.registered(lambda x, y: x == self.width - 1, f"{name}_end")
         with m.If(self._beat):
             m.d.sync += reg.eq(Mux(row_end, 1, (current << 1) | 1))

@@ -31,7 +31,8 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.rectify import INTERPOLATIONS, RectifyGrid
 
-from ._util import bits_for, check_geometry, check_int, delay, register_input, replicate
+from ._util import (bits_for, check_geometry, check_int, delay, register_input, replicate,
+                    times_constant)
 from .raster_position import OVERRUN_ROWS, RasterPosition
 from .stage import StageTiming
 
@@ -45,8 +46,9 @@ MAX_SHIFT_Y = (OVERRUN_ROWS - 6) // 2
 #: Words of a row-buffer bank's memory chunk: one block deep at the widths
 #: the blocks offer for 8 to 24-bit words (ECP5 DP16KD 2048 x 9, Cyclone V M10K
 #: 2048 x 5), so a full chunk's output needs no multiplexer before its
-#: register. (A bank's last, partial chunk may be mapped otherwise: yosys built
-#: the default rig's 1,024-word one of two ECP5 blocks in depth; hdl/README.)
+#: register. A bank's last, shorter chunk is one memory per lane (8 bits):
+#: as one memory of 24-bit words yosys built the default rig's 1,024-word
+#: chunk of two ECP5 blocks in depth (512 x 36), and put a multiplexer there.
 CHUNK_WORDS = 2048
 
 
@@ -212,7 +214,7 @@ class Rectifier(wiring.Component):
         w_bank_1 = reg(Cat(pos_in.x[0], slot_in_cur[0]), "wbank")
         w_col_2 = reg(pos_in.x >> 1, "wcol", 2)
         w_row_2 = Signal(range(depth + 1), name="wrow")
-        m.d.sync += w_row_2.eq(w_half_1 * half_w)
+        m.d.sync += w_row_2.eq(times_constant(w_half_1, half_w))
         w_bank_2 = reg(w_bank_1, "wbank2")
         w_en_2 = reg(beat, "wen", 2)
         w_data_2 = reg(p.pixel.as_value(), "wdata", 2)
@@ -224,19 +226,29 @@ class Rectifier(wiring.Component):
         chunk_bits = min(depth_bits, CHUNK_WORDS.bit_length() - 1)
         chunks = -(-depth >> chunk_bits)
         w_addr_2 = (w_row_2 + w_col_2)[:depth_bits]
+        read_addr = [Signal(depth_bits, name=f"raddr_{b}") for b in range(4)]
         banks = []
         for b in range(4):
-            ports = []
+            chunk_data = []
             for c in range(chunks):
                 size = min(depth - (c << chunk_bits), 1 << chunk_bits)
-                chunk = memory.Memory(shape=8 * self.lanes, depth=size, init=[])
-                m.submodules[f"bank_{b}_{c}" if chunks > 1 else f"bank_{b}"] = chunk
-                wr = chunk.write_port()
-                m.d.comb += [wr.addr.eq(w_addr_2[:chunk_bits]), wr.data.eq(w_data_2),
-                             wr.en.eq(w_en_2 & (w_bank_2 == b)
-                                      & (w_addr_2[chunk_bits:] == c))]
-                ports.append(chunk.read_port(transparent_for=()))
-            banks.append(ports)
+                name = f"bank_{b}_{c}" if chunks > 1 else f"bank_{b}"
+                split = size < CHUNK_WORDS and self.lanes > 1
+                lane_bits = 8 if split else 8 * self.lanes
+                lane_data = []
+                for lane in range(self.lanes if split else 1):
+                    chunk = memory.Memory(shape=lane_bits, depth=size, init=[])
+                    m.submodules[f"{name}_lane{lane}" if split else name] = chunk
+                    wr = chunk.write_port()
+                    m.d.comb += [wr.addr.eq(w_addr_2[:chunk_bits]),
+                                 wr.data.eq(w_data_2[lane * lane_bits:(lane + 1) * lane_bits]),
+                                 wr.en.eq(w_en_2 & (w_bank_2 == b)
+                                          & (w_addr_2[chunk_bits:] == c))]
+                    rd = chunk.read_port(transparent_for=())
+                    m.d.comb += rd.addr.eq(read_addr[b][:chunk_bits])
+                    lane_data.append(rd.data)
+                chunk_data.append(Cat(*lane_data))
+            banks.append(chunk_data)
 
         # --- map: vertical interpolation one row ahead ----------------------------------
         words = [(int(dy) & ((1 << gb) - 1)) << gb | (int(dx) & ((1 << gb) - 1))
@@ -249,7 +261,7 @@ class Rectifier(wiring.Component):
         # the grid row's first word (a product), then both addresses (sums), each
         # registered: a sum in front of a memory block's address is slow
         base_1 = Signal(range(self.grid_rows * cols + 1), name="vbase")
-        m.d.sync += base_1.eq((ahead.y >> s)[:bits_for(self.grid_rows)] * cols)
+        m.d.sync += base_1.eq(times_constant((ahead.y >> s)[:bits_for(self.grid_rows)], cols))
         k_1, fy_1 = reg(ahead.x[:bits_for(cols)], "vk"), reg(ahead.y[:s], "vfy")
         parity_1, ok_1 = reg(ahead.y[0], "vrow"), reg(in_grid, "vok")
         top_addr, bottom_addr = (Signal(range(len(words)), name=n)
@@ -380,17 +392,16 @@ class Rectifier(wiring.Component):
             m.d.sync += slot_bank.eq(Mux(inside[b], Mux(same_row[b], slot_top, slot_bottom),
                                       0))
             row_base = Signal(range(depth + 1), name=f"rowbase9_{b}")
-            m.d.sync += row_base.eq((slot_bank >> 1) * half_w)
+            m.d.sync += row_base.eq(times_constant(slot_bank >> 1, half_w))
             col_bank = reg(Mux(inside[b], col_half[b], 0), f"col9_{b}", 2)
             addr = (row_base + col_bank)[:depth_bits]
-            for port in banks[b]:
-                m.d.comb += port.addr.eq(addr[:chunk_bits])
+            m.d.comb += read_addr[b].eq(addr)
             chunk_of.append(reg(addr[chunk_bits:], f"chunk11_{b}", 2))
         # each chunk's word registered; then the chunk's word of each bank to
         # its tap (00, 10, 01, 11: x, y offsets), 0 outside; the weights
         words = []
-        for b, ports in enumerate(banks):
-            chunk_words = [reg(port.data, f"word11_{b}_{c}") for c, port in enumerate(ports)]
+        for b, chunk_data in enumerate(banks):
+            chunk_words = [reg(word, f"word11_{b}_{c}") for c, word in enumerate(chunk_data)]
             word = Signal(8 * self.lanes, name=f"word11_{b}")
             with m.Switch(chunk_of[b]):
                 for c, chunk_word in enumerate(chunk_words):

@@ -116,7 +116,12 @@ class WindowSum(wiring.Component):
         beat = beats[0]
         p = self.i_stream.payload
         first = delay(m, self.i_stream.valid & p.first, 1, "first_in")
-        csum = delay(m, p.csum.as_value(), 1, "csum_in")
+        tb = self.term_bits
+        # the column sums registered per group (a simulator then slices each
+        # sum out of a word of a few sums, not out of one of all D)
+        spans = [(g * FLAG_GROUP, min(nd, (g + 1) * FLAG_GROUP)) for g in range(copies)]
+        csums = [delay(m, p.csum.as_value()[lo * tb:hi * tb], 1, f"csum_in_{g}",
+                       reset_less=True) for g, (lo, hi) in enumerate(spans)]
         pos = RasterPosition(w, h, 0, "col").attach(m, beat, first)
         out_pos = RasterPosition(w, h, self.lag, "out").attach(m, beat, first)
         # Cycle 1 (the registered beat): the position flags, the column sum and the
@@ -139,7 +144,6 @@ class WindowSum(wiring.Component):
         # of column-sum vectors (RAM, read two beats ahead into a beat-gated
         # register), one per group of disparities, each with its own copy of
         # the addresses; or a register for Wh = 1.
-        tb = self.term_bits
         if self.ring_depth:
             depth = self.ring_depth
             ptr = Signal(range(depth))
@@ -148,31 +152,33 @@ class WindowSum(wiring.Component):
             ptr_next = Signal(range(depth))
             read_next = Signal(range(depth))
             # read at beat j the word of beat j - (Wh - 2): held (en) until the
-            # next beat loads it into `leaving_all`, used at beat j + 2
+            # next beat loads it into its group's `leaving`, used at beat j + 2
             m.d.comb += [ptr_next.eq(ptr + beat), read_next.eq(ptr_next - (wh - 2))]
             waddrs = replicate(m, ptr_next, copies, "waddr")
             raddrs = replicate(m, read_next, copies, "raddr", init=(2 - wh) % depth)
-            parts = []
-            for g in range(copies):
-                lo, hi = g * FLAG_GROUP * tb, min(nd, (g + 1) * FLAG_GROUP) * tb
-                ring = memory.Memory(shape=hi - lo, depth=depth, init=[])
+            ring_outs = []
+            for g, (lo, hi) in enumerate(spans):
+                ring = memory.Memory(shape=(hi - lo) * tb, depth=depth, init=[])
                 m.submodules[f"ring_{g}"] = ring
                 wr, rd = ring.write_port(), ring.read_port()
-                m.d.comb += [wr.addr.eq(waddrs[g]), wr.data.eq(csum[lo:hi]),
+                m.d.comb += [wr.addr.eq(waddrs[g]), wr.data.eq(csums[g]),
                              wr.en.eq(beats[g]), rd.addr.eq(raddrs[g]), rd.en.eq(beats[g])]
-                parts.append(rd.data)
-            ring_out = Cat(*parts)
+                ring_outs.append(rd.data)
         else:
-            ring_out = csum
-        leaving_all = Signal(nd * tb, reset_less=True)
+            ring_outs = csums
+        leavings = []
+        for g, (lo, hi) in enumerate(spans):
+            leaving = Signal((hi - lo) * tb, name=f"leaving_{g}", reset_less=True)
+            with m.If(beats[g]):
+                m.d.sync += leaving.eq(ring_outs[g])
+            leavings.append(leaving)
 
         for d in range(nd):
             g = d // FLAG_GROUP
+            k = d - spans[g][0]
             tail, start, head0, valid_1 = tails[g], starts[g], head0s[g], valid_1s[g]
-            c = csum[d * tb:(d + 1) * tb]
-            leaving = leaving_all[d * tb:(d + 1) * tb]
-            with m.If(beats[g]):
-                m.d.sync += leaving.eq(ring_out[d * tb:(d + 1) * tb])
+            c = csums[g][k * tb:(k + 1) * tb]
+            leaving = leavings[g][k * tb:(k + 1) * tb]
             c_1 = delay(m, c, 1, f"c_{d}", reset_less=True)
             leave_1 = delay(m, leaving, 1, f"leave_{d}", reset_less=True)
             diff_1 = Signal(signed(self.term_bits + 1), name=f"diff_{d}", reset_less=True)

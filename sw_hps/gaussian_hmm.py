@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .hmm import MODEL_FORMAT, check_thresholds, decide
+from .hmm import MODEL_FORMAT, MODEL_VERSION, check_thresholds, decide
 from .stroke import FEATURE_NAMES, RESAMPLE_RANGE, stroke_features
 
 __all__ = ["GaussianHMM", "GaussianGestureModels", "log_emissions", "forward_log_lattice",
@@ -243,7 +243,7 @@ class GaussianGestureModels:
         return replace(self, thresholds=thresholds, meta=dict(self.meta))
 
     def to_dict(self) -> dict:
-        return {"format": MODEL_FORMAT, "version": 2, "emission": self.emission,
+        return {"format": MODEL_FORMAT, "version": MODEL_VERSION, "emission": self.emission,
                 "class_names": list(self.class_names),
                 "features": {"names": list(FEATURE_NAMES), "resample": self.resample,
                              "weights": self.weights.tolist()},
@@ -251,6 +251,7 @@ class GaussianGestureModels:
                 "rejection": None if self.thresholds is None else
                 {"statistic": "mean log-likelihood per feature vector",
                  "thresholds": list(self.thresholds)},
+                "spotting": None,
                 "meta": self.meta}
 
     @classmethod

@@ -6,12 +6,13 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this
 project. Training lives in :mod:`recognition`; both read and write the same
 JSON model file through :func:`load_models` / :func:`save_models`.
 
-Model file (JSON), version 2::
+Model file (JSON), version 3::
 
-    {"format": "stereogest-hmm", "version": 2,
+    {"format": "stereogest-hmm", "version": 3,
      "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
+     "spotting": null | {"threshold_bias": b, "end_delay": n, "min_symbols": k},
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,
@@ -20,7 +21,10 @@ Model file (JSON), version 2::
      "features": {"names": [...], "resample": 64, "weights": [...]},
      "models": [{"components": [{"stay": [...], "mean": [[...]], "var": [[...]]}, ...]}, ...]}
 
-Version 1 files (discrete, no ``emission`` and no ``rejection``) still load.
+Version 1 files (discrete, no ``emission`` and no ``rejection``) and version 2
+files (no ``spotting``) still load. ``spotting`` holds the options of the
+continuous recogniser (:mod:`sw_hps.continuous`, discrete models only; null:
+its defaults).
 Discrete: one model per class; each has N states (N may differ between
 classes), A is N x N, B is N x num_symbols, pi has N entries; every row sums
 to 1.
@@ -38,13 +42,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "EMISSIONS", "DiscreteHMM", "GestureModels",
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM", "GestureModels",
            "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
            "save_models"]
 
 MODEL_FORMAT = "stereogest-hmm"
-#: Version written; 1 (discrete, no rejection) is still read.
-MODEL_VERSION = 2
+#: Version written; 1 (discrete, no rejection) and 2 (no spotting) are still read.
+MODEL_VERSION = 3
+#: Versions read.
+MODEL_VERSIONS = (1, 2, 3)
 #: Emission models a model file may hold.
 EMISSIONS = ("discrete", "gaussian")
 _ROW_TOLERANCE = 1e-6
@@ -212,6 +218,8 @@ class GestureModels:
     meta: dict = field(default_factory=dict, compare=False)
     #: Per class, the lowest log-likelihood per symbol accepted (None: never refuse).
     thresholds: tuple[float, ...] | None = None
+    #: Options of the continuous recogniser (None: its defaults).
+    spotting: dict | None = None
 
     emission = "discrete"
 
@@ -224,6 +232,9 @@ class GestureModels:
         object.__setattr__(self, "class_names", names)
         object.__setattr__(self, "models", tuple(self.models))
         object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
+        if self.spotting is not None:
+            from .continuous import check_spotting
+            object.__setattr__(self, "spotting", check_spotting(self.spotting))
         ForwardStream(self.models)  # checks the symbol counts agree
 
     @property
@@ -258,6 +269,7 @@ class GestureModels:
                 "rejection": None if self.thresholds is None else
                 {"statistic": "mean log-likelihood per symbol",
                  "thresholds": list(self.thresholds)},
+                "spotting": self.spotting,
                 "meta": self.meta}
 
     @classmethod
@@ -269,12 +281,16 @@ class GestureModels:
         if data.get("format") != MODEL_FORMAT:
             raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
         version = data.get("version")
-        if version not in (1, MODEL_VERSION) or isinstance(version, bool):
-            raise ValueError(f"version must be 1 or {MODEL_VERSION}, got {version!r}")
-        emission = data.get("emission", "discrete") if version == MODEL_VERSION else "discrete"
+        if version not in MODEL_VERSIONS or isinstance(version, bool):
+            raise ValueError(f"version must be one of {list(MODEL_VERSIONS)}, got {version!r}")
+        emission = data.get("emission", "discrete") if version >= 2 else "discrete"
         if emission not in EMISSIONS:
             raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+        spotting = data.get("spotting") if version >= 3 else None
         if emission == "gaussian":
+            if spotting is not None:
+                raise ValueError("spotting must be null for gaussian models (the continuous "
+                                 "recogniser runs discrete models)")
             from .gaussian_hmm import GaussianGestureModels
             return GaussianGestureModels.from_dict(data)
         names = data.get("class_names")
@@ -295,8 +311,11 @@ class GestureModels:
         if rejection is not None and (not isinstance(rejection, dict)
                                       or "thresholds" not in rejection):
             raise ValueError("rejection must be null or an object with thresholds")
-        result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
-                     None if rejection is None else rejection["thresholds"])
+        try:
+            result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
+                         None if rejection is None else rejection["thresholds"], spotting)
+        except ValueError as exc:
+            raise ValueError(str(exc)) from None
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["NUM_SYMBOLS", "NO_SYMBOL", "orientation_symbols"]
+__all__ = ["NUM_SYMBOLS", "NO_SYMBOL", "orientation_symbols", "DistanceSymbols"]
 
 #: Number of orientation symbols (45-degree sectors).
 NUM_SYMBOLS = 8
@@ -68,3 +68,42 @@ def orientation_symbols(points) -> np.ndarray:
                        np.where(vertical, np.where(up, 2, 6), diagonal_symbol))
     symbols = np.where((dx == 0) & (dy == 0), NO_SYMBOL, symbols)
     return symbols.astype(np.int8)
+
+
+class DistanceSymbols:
+    """Causal symbols at equal travel: a symbol each time the position has moved
+    ``step`` or more (Euclidean, the positions' units) from where the last one
+    was taken; its orientation is that of the whole move (thesis Fig. 82's
+    sectors). A continuous stream then gives symbols at a pace set by the
+    path, not by the speed, and a still or jittering hand gives none: the
+    causal counterpart of resampling a whole stroke to equidistant points.
+    """
+
+    def __init__(self, step: int):
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) \
+                or not 1 <= step <= 1 << 24:
+            raise ValueError(f"step must be an integer in [1, {1 << 24}], got {step!r}")
+        self.step = int(step)
+        self._anchor = None
+
+    def reset(self) -> None:
+        """Forget the anchor (the hand left)."""
+        self._anchor = None
+
+    def push(self, point):
+        """Take an integer position ``(x, y)``; its symbol, or None."""
+        x, y = int(point[0]), int(point[1])
+        if self._anchor is None:
+            self._anchor = (x, y)
+            return None
+        ax, ay = self._anchor
+        if (x - ax) ** 2 + (y - ay) ** 2 < self.step ** 2:
+            return None
+        self._anchor = (x, y)
+        return int(orientation_symbols(np.array([[ax, ay], [x, y]], np.int64))[0])
+
+    def symbols(self, points) -> np.ndarray:
+        """The symbols of a whole path (None steps dropped), from a fresh anchor."""
+        self.reset()
+        out = [self.push(p) for p in np.asarray(points)]
+        return np.array([s for s in out if s is not None], np.int8)

@@ -16,6 +16,7 @@ from stereogest import cli
 
 DATA = Path(__file__).resolve().parent.parent / "data"
 TSUKUBA = DATA / "middlebury" / "tsukuba"
+DOLLAR = DATA / "gestures" / "dollar1_unistroke" / "dollar1_unistroke.npz"
 MODEL = Path(__file__).resolve().parent.parent / "sw_hps" / "models" / "gestures7.json"
 
 
@@ -265,6 +266,10 @@ CASES = [
     case("gestures", "-o", f"{OUT}/no/g.npz", match="--output"),
     case("gestures", "-o", f"{IN}/adir", match="--output"),
     case("gestures", "-o", "/proc/stereogest.npz", "--per-class", "1", match="/proc"),
+    *[case("gestures", "-o", f"{OUT}/s.npz", "--join", str(DOLLAR), option, value, match=option)
+      for option, value in [("--pause", "5-2"), ("--pause", "x"), ("--pause", "0-10001"),
+                            ("--per-stream", "0")]],
+    case("gestures", "-o", f"{OUT}/s.npz", "--join", f"{IN}/nope.npz", match="nope.npz"),
     # ------------------------------------------------------------ train
     case("train", f"{IN}/nope.npz", "-o", f"{OUT}/m.json", match="nope.npz"),
     case("train", f"{IN}/renamed.npz", "-o", f"{OUT}/m.json", match="renamed.npz"),

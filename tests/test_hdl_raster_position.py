@@ -10,6 +10,7 @@ from amaranth.sim import Simulator
 from hdl.raster_position import OVERRUN_ROWS, RasterPosition
 
 THERMO = 4
+SPLIT = 5              # a thermometer in runs of 3 and 2 bits, one first each
 ROWS = (1, 4)          # the sliding flags: 1 - i <= y < 4 - i, i in 0..2
 
 
@@ -20,7 +21,7 @@ class _Probe(wiring.Component):
         self.width, self.height, self.lag = width, height, lag
         super().__init__({"beat": In(1), "first": In(1), "x": Out(16), "y": Out(16),
                           "real": Out(1), "is_first": Out(1), "edge": Out(1),
-                          "thermo": Out(THERMO), "rows": Out(3), "cols": Out(3)})
+                          "thermo": Out(THERMO), "split": Out(SPLIT), "rows": Out(3), "cols": Out(3)})
 
     def elaborate(self, platform):
         m = Module()
@@ -31,6 +32,8 @@ class _Probe(wiring.Component):
                      self.edge.eq(pos.registered(lambda x, y: (x == self.width - 1) | (y < 0),
                                                  "edge")),
                      self.thermo.eq(pos.thermometer(THERMO)),
+                     self.split.eq(pos.thermometer(SPLIT, "split",
+                                                   firsts=[self.first, self.first])),
                      self.rows.eq(pos.sliding_flags(3, *ROWS, "y", "rows")),
                      self.cols.eq(pos.sliding_flags(3, 1, 4, "x", "cols"))]
         return m
@@ -72,6 +75,8 @@ def test_position_and_helpers_follow_the_raster(width, height, lag):
                 assert ctx.get(dut.edge) == int(x == width - 1 or y < 0)
                 thermo = sum(1 << i for i in range(THERMO) if x >= i)
                 assert ctx.get(dut.thermo) == thermo, (index, x)
+                split = sum(1 << i for i in range(SPLIT) if x >= i)
+                assert ctx.get(dut.split) == split, (index, x)
                 rows = sum(1 << i for i in range(3) if ROWS[0] - i <= y < ROWS[1] - i)
                 assert ctx.get(dut.rows) == rows, (index, y)
                 cols = sum(1 << i for i in range(3) if 1 - i <= x < 4 - i)

@@ -246,7 +246,7 @@ def test_model_file_round_trip_keeps_every_score(tmp_path):
     path = tmp_path / "gauss.json"
     save_models(models, path)
     data = json.loads(path.read_text())
-    assert (data["version"], data["emission"]) == (2, "gaussian")
+    assert (data["version"], data["emission"]) == (3, "gaussian")
     assert data["rejection"]["thresholds"] == [-3.0, -2.5, -4.0]
     assert data["features"]["names"] == list(FEATURE_NAMES)
     loaded = load_models(path)
@@ -295,11 +295,16 @@ def test_version_1_discrete_file_still_loads(tmp_path):
     # Version 1 has no emission field: even a stray one is ignored (always discrete).
     path.write_text(json.dumps({**discrete_v1(), "emission": "gaussian"}))
     assert load_models(path).emission == "discrete"
-    # Written back, it is a version 2 discrete file with the same scores.
-    save_models(models, tmp_path / "v2.json")
-    data = json.loads((tmp_path / "v2.json").read_text())
-    assert (data["version"], data["emission"], data["rejection"]) == (2, "discrete", None)
-    assert np.array_equal(load_models(tmp_path / "v2.json").scores([3, 3, 3]), scores)
+    # Written back, it is a version 3 discrete file with the same scores.
+    save_models(models, tmp_path / "v3.json")
+    data = json.loads((tmp_path / "v3.json").read_text())
+    assert (data["version"], data["emission"], data["rejection"], data["spotting"]) == \
+        (3, "discrete", None, None)
+    assert np.array_equal(load_models(tmp_path / "v3.json").scores([3, 3, 3]), scores)
+    # A version 2 file (no spotting) loads too.
+    path.write_text(json.dumps({**discrete_v1(), "version": 2, "emission": "discrete",
+                                "rejection": None}))
+    assert load_models(path).spotting is None
 
 
 def test_discrete_thresholds_round_trip(tmp_path):
@@ -316,7 +321,7 @@ def gaussian_dict(**change):
 
 @pytest.mark.parametrize("data, words", [
     (gaussian_dict(emission="poisson"), ["emission", "poisson"]),
-    (gaussian_dict(version=3), ["version", "3"]),
+    (gaussian_dict(version=7), ["version", "7"]),
     (gaussian_dict(version=True), ["version"]),
     (gaussian_dict(version="2"), ["version"]),
     (gaussian_dict(format="other"), ["format"]),
@@ -336,6 +341,14 @@ def gaussian_dict(**change):
     (gaussian_dict(class_names=["left", "right", "stop", "extra"]), ["4 class_names", "3"]),
     ({**discrete_v1(), "version": 2, "emission": "discrete",
       "rejection": {"thresholds": [0.0]}}, ["thresholds", "2"]),
+    ({**discrete_v1(), "version": 3, "emission": "discrete",
+      "spotting": {"end_delay": 0}}, ["spotting end_delay", "[1, 1000]"]),
+    ({**discrete_v1(), "version": 3, "emission": "discrete",
+      "spotting": {"delay": 3}}, ["spotting", "unknown", "delay"]),
+    ({**discrete_v1(), "version": 3, "emission": "discrete", "spotting": [1]},
+     ["spotting must be null or an object"]),
+    (gaussian_dict(version=3, spotting={"end_delay": 4}), ["spotting must be null", "gaussian"]),
+    ({**discrete_v1(), "version": 4}, ["version must be one of [1, 2, 3]"]),
 ])
 def test_bad_model_file_is_a_one_line_error_naming_the_problem(tmp_path, data, words):
     path = tmp_path / "bad.json"

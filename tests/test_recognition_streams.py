@@ -103,3 +103,16 @@ def test_bad_streams_are_refused():
     with pytest.raises(ValueError, match="per_stream"):
         from recognition.datasets import TrajectorySet
         subject_streams(TrajectorySet.from_list([np.zeros((2, 2))], ["a"], [1]), 0)
+
+
+def test_cli_joins_a_dataset_into_streams(tmp_path, dollar):
+    from stereogest import cli
+    out = tmp_path / "streams.npz"
+    assert cli.main(["gestures", "--join", str(DOLLAR), "-o", str(out), "--per-stream", "8",
+                     "--pause", "0-3", "--seed", "4"]) == 0
+    streams = load_streams(out)
+    assert sum(len(s.spans) for s in streams) == len(dollar)
+    assert {s.subject for s in streams} == set(np.unique(dollar.subject).tolist())
+    again = subject_streams(dollar, 8, 4, pause=(0, 3))
+    assert all(np.allclose(a.points, b.points, atol=1e-3) and (a.spans == b.spans).all()
+               for a, b in zip(streams, again))

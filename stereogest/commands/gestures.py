@@ -8,6 +8,13 @@ tremor, segmentation jitter, fingers cut by the opening and dropped frames.
 The file is a trajectory .npz (points, offsets, label = gesture name, subject =
 person) plus the ground truth: motion (first and last motion frame of each
 trajectory), amplitude, dropped, fps and image_size.
+
+With ``--join DATA.npz`` it writes continuous streams instead (issue 28): each
+person's gestures of a trajectory dataset (the `$1` logs, pendigits, a corpus
+written by this command) in a random order, ``--per-stream`` to a stream,
+joined by a pause (``--pause MIN-MAX`` steps, the hand still) and a
+minimum-jerk transit to the next gesture's start, with every gesture's span
+and label (:mod:`recognition.streams`).
 """
 from __future__ import annotations
 
@@ -37,7 +44,54 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=int, default=30,
                         help="frame rate (5..240); the durations scale with it (15-30 rest "
                              "and 40-80 motion frames at 30 fps)")
+    parser.add_argument("--join", metavar="DATA.npz", default=None,
+                        help="join the gestures of this trajectory dataset (with subjects or "
+                             "writers) into continuous streams per person and write those")
+    parser.add_argument("--per-stream", type=int, default=8, metavar="N",
+                        help="with --join: gestures per stream (1..10000)")
+    parser.add_argument("--pause", default="0-15", metavar="MIN-MAX",
+                        help="with --join: steps the hand rests between two gestures, "
+                             "uniform in MIN..MAX (0..10000; 0 = it flows on)")
     add_json_switch(parser)
+
+
+def _pause(text: str) -> tuple[int, int]:
+    from recognition.streams import PAUSE_RANGE
+    lo, hi = PAUSE_RANGE
+    parts = str(text).split("-")
+    try:
+        a, b = (int(v) for v in parts) if len(parts) == 2 else (None, None)
+    except ValueError:
+        a = b = None
+    if a is None or not lo <= a <= b <= hi:
+        raise ValueError(f"--pause must be MIN-MAX with {lo} <= MIN <= MAX <= {hi}, "
+                         f"got {text!r}")
+    return a, b
+
+
+def _join(args, output) -> int:
+    from recognition.datasets import load_trajectories
+    from recognition.streams import save_streams, subject_streams
+    pause = _pause(args.pause)
+    data = load_trajectories(args.join)
+    if data.subject is None:
+        raise ValueError(f"--join: {args.join} has no subject (or writer) key: streams are "
+                         f"per person")
+    try:
+        streams = subject_streams(data, args.per_stream, args.seed, pause=pause)
+    except ValueError as exc:
+        raise ValueError(f"--{exc}".replace("per_stream", "per-stream", 1)) from None
+    save_streams(streams, output)
+    gestures = sum(len(s.spans) for s in streams)
+    steps = sum(len(s) for s in streams)
+    print(f"wrote {len(streams)} streams of {gestures} gestures ({steps} steps, pauses "
+          f"{pause[0]}-{pause[1]}, seed {args.seed}) from {args.join} -> {output}")
+    if args.json:
+        import json
+        print(json.dumps({"output": str(output), "streams": len(streams),
+                          "gestures": gestures, "steps": steps, "pause": list(pause),
+                          "seed": args.seed}))
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
     from sim.gesture_shapes import GESTURE_NAMES
 
     output = check_output_file(args.output)
+    if args.join is not None:
+        return _join(args, output)
     # (a parameter named in the library's message is named as its option by
     # stereogest.cli.in_option_names)
     corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,

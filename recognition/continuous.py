@@ -1,0 +1,181 @@
+"""Continuous recognition measured (issue 28): the board's
+:class:`sw_hps.continuous.ContinuousRecogniser` run over joined streams
+(:mod:`recognition.streams`) of people its models never saw.
+
+* :func:`spot_stream`: one stream through the symboliser and the recogniser,
+  frame by frame, as the board runs it; the source's end flushes.
+* :func:`match_detections`: a detection counts when its label is right and it
+  overlaps the true span by at least half of the shorter of the two; each
+  true gesture is matched at most once. Unmatched detections are false
+  commands (a wrong label, a gesture named twice, a command in a transit).
+* :func:`leave_one_subject_out`: per subject, discrete models trained on the
+  other subjects' isolated gestures, then that subject's gestures joined into
+  streams and spotted. Nothing is tuned on the held-out subject: the threshold
+  model's only option, ``threshold_bias``, is chosen by :func:`calibrate_bias`
+  on the training subjects alone (two halves, each spotted by models of the
+  other), unless given.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from recognition.datasets import TrajectorySet
+from recognition.hmm_train import train_models
+from recognition.streams import GestureStream, subject_streams
+from sw_hps.continuous import SPOTTING_DEFAULTS, ContinuousRecogniser, Detection
+from sw_hps.orientation import DistanceSymbols
+
+__all__ = ["spot_stream", "match_detections", "leave_one_subject_out", "stream_summary",
+           "calibrate_bias", "BIAS_GRID"]
+
+#: Threshold biases :func:`calibrate_bias` tries (log-likelihood per symbol).
+BIAS_GRID = (-2.0, -1.5, -1.25, -1.0, -0.75, -0.5, -0.25, 0.0)
+
+
+def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
+                scale: float = 1.0) -> list[Detection]:
+    """The gestures ``recogniser`` names in one stream of positions (one per
+    frame; ``scale`` turns them into the integer units of ``step``)."""
+    recogniser.reset()
+    symbols = DistanceSymbols(step)
+    named = []
+    points = np.rint(np.asarray(points, dtype=np.float64) * scale).astype(np.int64)
+    for frame, point in enumerate(points):
+        named += recogniser.step(frame, symbols.push(point))
+    named += recogniser.flush(len(points) - 1)
+    return named
+
+
+def match_detections(detections, spans, labels):
+    """``(matched, latencies)``: per detection the index of the true gesture it
+    matches (-1: a false command); per matched true gesture the frames from its
+    true last frame to the frame it was named."""
+    spans = np.asarray(spans).reshape(-1, 2)
+    used = np.zeros(len(spans), bool)
+    matched, latencies = [], []
+    for det in detections:
+        hit = -1
+        for k, ((first, last), label) in enumerate(zip(spans, labels)):
+            if used[k] or label != det.name:
+                continue
+            overlap = min(last, det.last) - max(first, det.first) + 1
+            shorter = min(last - first + 1, det.last - det.first + 1)
+            if overlap >= 0.5 * shorter:
+                hit = k
+                break
+        if hit >= 0:
+            used[hit] = True
+            latencies.append(det.named_at - int(spans[hit][1]))
+        matched.append(hit)
+    return matched, latencies
+
+
+def stream_summary(true_count: int, detections: int, correct: int, latencies,
+                   transit_frames: int, false_commands: int, fps: float = 30.0) -> dict:
+    """Precision, recall, F1, latency quantiles and false commands per 10 minutes
+    of motion between gestures (at ``fps``)."""
+    precision = correct / detections if detections else 1.0
+    recall = correct / true_count if true_count else 1.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    lat = np.asarray(latencies, dtype=np.float64)
+    minutes = transit_frames / fps / 60.0
+    return {"gestures": true_count, "detections": detections, "correct": correct,
+            "precision": precision, "recall": recall, "f1": f1,
+            "latency_median_frames": float(np.median(lat)) if lat.size else None,
+            "latency_p95_frames": float(np.percentile(lat, 95)) if lat.size else None,
+            "false_commands": false_commands, "between_gesture_frames": transit_frames,
+            "false_commands_per_10_min": (10.0 * false_commands / minutes) if minutes else None}
+
+
+def _spot_counts(recogniser, streams, step) -> tuple[int, int, int, list, int, int]:
+    """(true, detections, correct, latencies, between-gesture frames, false)."""
+    true = det = correct = between = false = 0
+    latencies = []
+    for stream in streams:
+        found = spot_stream(recogniser, stream.points, step)
+        matched, lat = match_detections(found, stream.spans, stream.labels)
+        true += len(stream.spans)
+        det += len(found)
+        correct += sum(k >= 0 for k in matched)
+        false += sum(k < 0 for k in matched)
+        between += _between_frames(stream)
+        latencies += lat
+    return true, det, correct, latencies, between, false
+
+
+def calibrate_bias(data: TrajectorySet, sequences, *, states: int, step: int,
+                   emission_floor: float, per_stream: int, pause, seed: int,
+                   spotting: dict, grid=BIAS_GRID) -> tuple[float, dict]:
+    """The threshold bias of ``grid`` with the best F1 on ``data``'s subjects
+    (training subjects only): they are dealt into two halves, each half's
+    streams spotted by models trained on the other; ties go to the larger
+    bias (the stricter threshold). Returns the bias and the F1 per bias."""
+    subjects = np.unique(data.subject)
+    if subjects.size < 2:
+        raise ValueError("calibration needs at least two training subjects")
+    halves = [subjects[0::2], subjects[1::2]]
+    counts = {b: np.zeros(3) for b in grid}
+    for k in range(2):
+        train = np.flatnonzero(np.isin(data.subject, halves[1 - k]))
+        test = np.flatnonzero(np.isin(data.subject, halves[k]))
+        models = train_models([sequences[i] for i in train], data.label[train],
+                              data.class_names, states, emission_floor=emission_floor)
+        streams = subject_streams(data.subset(test), per_stream, seed, pause=pause)
+        for bias in grid:
+            rec = ContinuousRecogniser(models, **dict(spotting, threshold_bias=bias))
+            true, det, correct, *_ = _spot_counts(rec, streams, step)
+            counts[bias] += (true, det, correct)
+    f1 = {}
+    for bias, (true, det, correct) in counts.items():
+        f1[bias] = 2 * correct / (true + det) if true + det else 0.0
+    best = max(grid, key=lambda b: (f1[b], b))
+    return float(best), {str(b): round(v, 4) for b, v in f1.items()}
+
+
+def _between_frames(stream: GestureStream) -> int:
+    inside = int((stream.spans[:, 1] - stream.spans[:, 0] + 1).sum())
+    return len(stream) - inside
+
+
+def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 6,
+                          emission_floor: float = 1e-3, per_stream: int = 8,
+                          pause=(0, 15), seed: int = 0, spotting: dict | None = None,
+                          fps: float = 30.0) -> dict:
+    """Continuous recognition of every subject of ``data`` by models trained on
+    the others (module docstring); JSON-ready figures, overall and per subject."""
+    if data.subject is None:
+        raise ValueError("the dataset has no subject (or writer) key")
+    names = data.class_names
+    options = dict(SPOTTING_DEFAULTS, **(spotting or {}))
+    calibrate = "threshold_bias" not in (spotting or {})
+    symbolise = DistanceSymbols(step)
+    sequences = [symbolise.symbols(np.rint(t).astype(np.int64)) for t in data.trajectories()]
+    per_subject = {}
+    totals = np.zeros(5, np.int64)           # true, detections, correct, between, false
+    all_latencies = []
+    for subject in np.unique(data.subject):
+        train = np.flatnonzero(data.subject != subject)
+        fold = dict(options)
+        calibration = None
+        if calibrate:
+            fold["threshold_bias"], calibration = calibrate_bias(
+                data.subset(train), [sequences[i] for i in train], states=states, step=step,
+                emission_floor=emission_floor, per_stream=per_stream, pause=pause, seed=seed,
+                spotting=options)
+        models = train_models([sequences[i] for i in train], data.label[train], names, states,
+                              emission_floor=emission_floor)
+        held = data.subset(np.flatnonzero(data.subject == subject))
+        streams = subject_streams(held, per_stream, seed, pause=pause)
+        true, det, correct, latencies, between, false = _spot_counts(
+            ContinuousRecogniser(models, **fold), streams, step)
+        per_subject[int(subject)] = dict(
+            stream_summary(true, det, correct, latencies, between, false, fps),
+            threshold_bias=fold["threshold_bias"], calibration_f1=calibration)
+        totals += (true, det, correct, between, false)
+        all_latencies += latencies
+    true, det, correct, between, false = (int(v) for v in totals)
+    overall = stream_summary(true, det, correct, all_latencies, between, false, fps)
+    return {"protocol": "leave one subject out", "states": states, "step": step,
+            "emission_floor": emission_floor, "per_stream": per_stream,
+            "pause": list(pause), "seed": seed, "spotting": options,
+            "overall": overall, "per_subject": per_subject}

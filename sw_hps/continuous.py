@@ -1,0 +1,246 @@
+"""Continuous gesture recognition with a threshold model (issue 28; thesis
+§10.1, its first limitation: gestures one after another, no rest between them,
+and motion that is no gesture in between).
+
+Runs on the board's ARM: Python 3 and numpy only.
+
+The threshold model (Lee and Kim, IEEE PAMI 21(10), 1999) is an ergodic HMM
+built from the gesture models' own states: every state of every class keeps
+its emission probabilities and its self-transition, and leaves to each other
+state with equal probability. It explains any sequence of gesture pieces in
+any order, so its likelihood is an adaptive threshold: a class whose final
+state scores above it has explained the recent symbols better than any
+patchwork of pieces. Nothing is trained for it; its one option is
+``threshold_bias``, log-likelihood per symbol added to the threshold model
+(> 0 refuses more, < 0 accepts more: with many classes the threshold model
+can follow nearly any sequence, and a small negative bias, calibrated on
+held-out people, lets true gestures through).
+
+Decoding is a causal Viterbi pass over one network: the class models and the
+threshold model side by side, each entered from the best end score of the
+step before (a loop, so gestures follow each other with or without motion
+between them). Each gesture state carries the step its path entered the class
+model (its start). A step whose best end is a class' final state (and whose
+path is at least ``min_symbols`` long) is a candidate; the best candidate of
+a run is named once ``end_delay`` frames pass without a better one, or when
+the source says the hand left or stopped (:meth:`ContinuousRecogniser.flush`).
+A named gesture's symbols cannot start another: every path that entered a
+class model at or before its last step is dropped, so nothing is named twice.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Detection", "ContinuousRecogniser", "threshold_model", "SPOTTING_DEFAULTS",
+           "check_spotting"]
+
+#: Options of the continuous recogniser and their defaults; a model file's
+#: ``spotting`` entry may set each (validated by :func:`check_spotting`).
+SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 8, "min_symbols": 4}
+_RANGES = {"threshold_bias": (-10.0, 10.0), "end_delay": (1, 1000), "min_symbols": (1, 1000)}
+_NEG = -np.inf
+
+
+def check_spotting(options) -> dict:
+    """The defaults updated by ``options`` (a dict or None); ``ValueError``
+    names the option and its allowed range."""
+    if options is None:
+        return dict(SPOTTING_DEFAULTS)
+    if not isinstance(options, dict):
+        raise ValueError("spotting must be null or an object")
+    unknown = sorted(set(options) - set(SPOTTING_DEFAULTS))
+    if unknown:
+        raise ValueError(f"spotting: unknown option(s) {', '.join(unknown)} (allowed: "
+                         f"{', '.join(SPOTTING_DEFAULTS)})")
+    out = dict(SPOTTING_DEFAULTS)
+    for key, value in options.items():
+        lo, hi = _RANGES[key]
+        integer = isinstance(SPOTTING_DEFAULTS[key], int)
+        ok = not isinstance(value, bool) and (
+            isinstance(value, int) if integer else isinstance(value, (int, float)))
+        if not ok or not lo <= value <= hi or value != value:
+            kind = "an integer" if integer else "a number"
+            raise ValueError(f"spotting {key} must be {kind} in [{lo}, {hi}], got {value!r}")
+        out[key] = int(value) if integer else float(value)
+    return out
+
+
+def threshold_model(models):
+    """``(log_a, log_b)`` of the threshold model of discrete ``models``
+    (:class:`sw_hps.hmm.DiscreteHMM`): S states (all of theirs), ``log_a``
+    (S, S), ``log_b`` (S, symbols). State i keeps its model's a_ii and goes to
+    each other state with (1 - a_ii) / (S - 1)."""
+    stay = np.concatenate([np.diag(m.A) for m in models])
+    b = np.concatenate([m.B for m in models])
+    s = len(stay)
+    if s == 1:
+        a = np.ones((1, 1))
+    else:
+        a = np.repeat(((1.0 - stay) / (s - 1))[:, None], s, axis=1)
+        np.fill_diagonal(a, stay)
+    with np.errstate(divide="ignore"):
+        return np.log(a), np.log(b)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A gesture named in a stream: its class, the frames of its first and last
+    symbol (inclusive), its score (the class' log-likelihood above the threshold
+    model's at its end) and the frame at which it was named."""
+    class_index: int
+    name: str
+    first: int
+    last: int
+    score: float
+    named_at: int
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "first": self.first, "last": self.last,
+                "score": round(self.score, 4), "named_at": self.named_at}
+
+
+class ContinuousRecogniser:
+    """Frame-by-frame spotting of discrete gesture models (module docstring).
+
+    Parameters
+    ----------
+    models : sw_hps.hmm.GestureModels
+        Discrete class models (one left-right HMM per class).
+    threshold_bias, end_delay, min_symbols
+        :data:`SPOTTING_DEFAULTS`; ``end_delay`` in frames.
+
+    Call :meth:`step` once per frame with that frame's symbol (None when the
+    hand did not move enough for one), :meth:`flush` when the hand leaves or
+    the source ends; both return the gestures named then.
+    """
+
+    def __init__(self, models, **options):
+        if getattr(models, "emission", "discrete") != "discrete":
+            raise ValueError("the continuous recogniser needs discrete models "
+                             f"(emission 'discrete'), got {models.emission!r}")
+        opts = check_spotting(options)
+        self.threshold_bias = opts["threshold_bias"]
+        self.end_delay = opts["end_delay"]
+        self.min_symbols = opts["min_symbols"]
+        self.class_names = tuple(models.class_names)
+        hmms = list(models.models)
+        sizes = [m.num_states for m in hmms]
+        self._offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        n = int(self._offsets[-1])
+        self._last = self._offsets[1:] - 1                      # each class' final state
+        with np.errstate(divide="ignore"):
+            # the class models as one block-diagonal chain (-inf between classes)
+            self._log_a = np.full((n, n), _NEG)
+            for c, m in enumerate(hmms):
+                lo, hi = self._offsets[c], self._offsets[c + 1]
+                self._log_a[lo:hi, lo:hi] = np.log(m.A)
+            self._log_pi = np.concatenate([np.log(m.pi) for m in hmms])
+            self._log_b = np.concatenate([np.log(m.B) for m in hmms]).T.copy()   # (M, n)
+        t_a, t_b = threshold_model(hmms)
+        self._t_log_a = t_a
+        self._t_log_b = t_b.T.copy()
+        self._t_enter = -np.log(len(t_a))
+        self._inner = np.ones(n, bool)              # not a final state
+        self._inner[self._last] = False
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything (a new stream)."""
+        n = len(self._log_pi)
+        self._v = np.full(n, _NEG)
+        self._start = np.zeros(n, np.int64)
+        self._t = np.full(len(self._t_log_a), _NEG)
+        self._loop = 0.0
+        self._symbols = 0                # symbols taken so far
+        self._frame_of = []              # frame of each symbol
+        self._pending = None             # (class, start symbol, end symbol, score, frame)
+        self._barrier = -1               # paths must start after this symbol
+        self._longer = False             # a longer gesture may hold the pending one
+        self._frame = -1
+
+    def step(self, frame: int, symbol=None) -> list[Detection]:
+        """Take frame ``frame`` (rising) and its symbol (0..M-1, or None)."""
+        frame = int(frame)
+        self._frame = frame
+        named = self._take(int(symbol), frame) if symbol is not None else []
+        if self._pending is not None:
+            waited = frame - self._pending[4]
+            if waited >= self.end_delay and (not self._longer or waited >= 4 * self.end_delay):
+                named.append(self._name(frame))
+        return named
+
+    def flush(self, frame: int | None = None) -> list[Detection]:
+        """The hand left, stopped for good, or the source ended: name what is
+        pending and start afresh (no path runs across)."""
+        frame = self._frame if frame is None else int(frame)
+        named = [self._name(frame)] if self._pending is not None else []
+        symbols, frames = self._symbols, self._frame_of
+        self.reset()
+        self._symbols, self._frame_of = symbols, frames
+        self._barrier = symbols - 1
+        self._frame = frame
+        return named
+
+    def _take(self, symbol: int, frame: int) -> list[Detection]:
+        if not 0 <= symbol < self._log_b.shape[0]:
+            raise ValueError(f"symbol must be in [0, {self._log_b.shape[0] - 1}] or None, "
+                             f"got {symbol}")
+        k = self._symbols
+        self._frame_of.append(frame)
+        loop = self._loop
+        # class models: stay on the chain, or enter from the loop
+        moved = self._v[:, None] + self._log_a
+        best_from = moved.argmax(axis=0)
+        stay = moved[best_from, np.arange(len(best_from))]
+        # entering costs what entering the threshold model costs, so a path
+        # does not restart on every symbol its first state's copy explains
+        enter = loop + self._t_enter + self._log_pi
+        entering = enter > stay
+        v = np.where(entering, enter, stay) + self._log_b[symbol]
+        start = np.where(entering, k, self._start[best_from])
+        v[start <= self._barrier] = _NEG
+        # the threshold model
+        t = np.maximum((self._t[:, None] + self._t_log_a).max(axis=0), loop + self._t_enter)
+        t = t + self._t_log_b[symbol] + self.threshold_bias
+        ends = v[self._last]
+        t_best = t.max()
+        best = int(ends.argmax())
+        loop = max(float(ends[best]), float(t_best))
+        if np.isfinite(loop):       # relative scores only: keep them near 0
+            v, t = v - loop, t - loop
+            ends = ends - loop
+            t_best = t_best - loop
+            loop = 0.0
+        self._v, self._start, self._t, self._loop = v, start, t, loop
+        self._symbols = k + 1
+        first = int(start[self._last[best]])
+        named = []
+        if ends[best] > t_best and k - first + 1 >= self.min_symbols:
+            score = float(ends[best] - t_best)
+            pending = self._pending
+            if pending is not None and first > pending[2]:
+                # a gesture after the pending one: that one is over
+                named.append(self._name(frame))
+                pending = None
+            # a better end; the same path on at no loss (the end state's run);
+            # another class' gesture that holds the pending one
+            if pending is None or score > pending[3] \
+                    or (best == pending[0] and first == pending[1] and score >= pending[3]) \
+                    or (best != pending[0] and first <= pending[1]):
+                self._pending = (best, first, k, score, frame)
+        pending = self._pending
+        # a longer gesture still under way over the pending one's symbols,
+        # explaining them better than the threshold model: wait for it
+        self._longer = pending is not None and bool(
+            ((v > t_best) & self._inner & (start <= pending[1])).any())
+        return named
+
+    def _name(self, frame: int) -> Detection:
+        c, first, last, score, _ = self._pending
+        self._pending = None
+        self._barrier = max(self._barrier, last)
+        self._v[self._start <= last] = _NEG
+        return Detection(int(c), self.class_names[c], int(self._frame_of[first]),
+                         int(self._frame_of[last]), score, int(frame))

@@ -1,0 +1,135 @@
+"""sw_hps/continuous.py: the threshold-model recogniser names each gesture of a
+stream once, with its frame span, within its delay; refuses noise; options and
+models are validated. sw_hps/orientation.DistanceSymbols: symbols at equal travel."""
+import numpy as np
+import pytest
+
+from sw_hps.continuous import ContinuousRecogniser, check_spotting, threshold_model
+from sw_hps.hmm import DiscreteHMM, GestureModels
+from sw_hps.orientation import DistanceSymbols
+
+
+def _chain(symbols, stay=0.8, floor=0.01):
+    """A left-right HMM whose state k emits mostly ``symbols[k]``."""
+    n = len(symbols)
+    a = np.zeros((n, n))
+    for k in range(n):
+        a[k, k] = stay if k < n - 1 else 1.0
+        if k < n - 1:
+            a[k, k + 1] = 1 - stay
+    b = np.full((n, 8), floor)
+    for k, s in enumerate(symbols):
+        b[k, s] = 1 - 7 * floor
+    pi = np.eye(n)[0]
+    return DiscreteHMM(pi, a, b)
+
+
+# four classes of four states: the threshold model has 16 states to choose
+# from, and the noise below (1s and 5s in random order) is what the states
+# of "circle" explain in pieces, never in its order
+MODELS = GestureModels(("up-right", "down-left", "zigzag", "circle"),
+                       (_chain([0, 2, 0, 2]), _chain([4, 6, 4, 6]), _chain([0, 6, 0, 6]),
+                        _chain([1, 3, 5, 7])))
+
+
+def _run(rec, frames):
+    """frames: symbols or None, one per frame; everything named, then flushed."""
+    named = []
+    for f, s in enumerate(frames):
+        named += rec.step(f, s)
+    return named + rec.flush(len(frames) - 1)
+
+
+def test_names_each_gesture_once_with_its_span():
+    rng = np.random.default_rng(0)
+    noise = [int(s) for s in rng.choice([1, 5], 12)]
+    gesture_a = [0] * 3 + [2] * 3 + [0] * 3 + [2] * 3    # frames 12..23
+    gesture_b = [4] * 3 + [6] * 3 + [4] * 3 + [6] * 3    # frames 36..47
+    frames = noise + gesture_a + noise + gesture_b + [None] * 20
+    rec = ContinuousRecogniser(MODELS, end_delay=5)
+    named = _run(rec, frames)
+    assert [d.name for d in named] == ["up-right", "down-left"]
+    a, b = named
+    # the start is exact; the end lies in the final state's run (a run of
+    # one symbol explains the same under the threshold model's copy of it)
+    assert a.first == 12 and 21 <= a.last <= 23
+    assert b.first == 36 and 45 <= b.last <= 47
+    assert b.named_at - b.last <= 5 + 1                   # within the end delay
+    assert all(d.score > 0 for d in named)
+    assert _run(ContinuousRecogniser(MODELS, end_delay=5), frames) == named    # deterministic
+
+
+def test_noise_and_stillness_name_nothing():
+    rng = np.random.default_rng(1)
+    frames = [None if rng.random() < 0.3 else int(rng.choice([1, 5])) for _ in range(300)]
+    assert _run(ContinuousRecogniser(MODELS), frames) == []
+
+
+def test_back_to_back_gestures_and_a_stricter_threshold():
+    frames = ([0] * 3 + [2] * 3) * 2 + ([4] * 3 + [6] * 3) * 2 + [None] * 10
+    named = _run(ContinuousRecogniser(MODELS, end_delay=3), frames)
+    assert [d.name for d in named] == ["up-right", "down-left"]
+    assert named[0].last < named[1].first
+    # a threshold raised far above any class refuses everything
+    assert _run(ContinuousRecogniser(MODELS, threshold_bias=5.0), frames) == []
+
+
+def test_flush_names_a_gesture_that_ends_with_the_source():
+    rec = ContinuousRecogniser(MODELS, end_delay=50)
+    named = []
+    for f, s in enumerate(([0] * 3 + [2] * 3) * 2):
+        named += rec.step(f, s)
+    assert named == []
+    named = rec.flush()
+    assert [d.name for d in named] == ["up-right"] and named[0].named_at == 11
+    assert rec.flush() == []                              # never twice
+
+
+def test_threshold_model_rows_sum_to_one():
+    log_a, log_b = threshold_model(MODELS.models)
+    assert log_a.shape == (16, 16) and log_b.shape == (16, 8)
+    assert np.allclose(np.exp(log_a).sum(axis=1), 1.0)
+    assert np.allclose(np.diag(np.exp(log_a)), [0.8, 0.8, 0.8, 1.0] * 4)
+
+
+@pytest.mark.parametrize("options, name", [
+    (dict(end_delay=0), "end_delay"), (dict(min_symbols=1.5), "min_symbols"),
+    (dict(threshold_bias=float("nan")), "threshold_bias"),
+    (dict(threshold_bias=True), "threshold_bias")])
+def test_bad_options_name_the_option(options, name):
+    with pytest.raises(ValueError, match=name):
+        ContinuousRecogniser(MODELS, **options)
+    with pytest.raises(ValueError, match="unknown"):
+        check_spotting({"delay": 3})
+
+
+def test_bad_symbol_and_gaussian_models_are_refused():
+    with pytest.raises(ValueError, match="symbol"):
+        ContinuousRecogniser(MODELS).step(0, 8)
+
+    class Gaussian:
+        emission = "gaussian"
+    with pytest.raises(ValueError, match="discrete"):
+        ContinuousRecogniser(Gaussian())
+
+
+def test_distance_symbols_at_equal_travel():
+    sym = DistanceSymbols(4)
+    # right 1 px per frame: a symbol (0, right) every 4 frames; still: none
+    out = [sym.push((x, 10)) for x in range(9)] + [sym.push((8, 10))] * 3
+    assert out == [None, None, None, None, 0, None, None, None, 0, None, None, None]
+    assert sym.symbols([(0, 0), (0, -5), (5, -5)]).tolist() == [2, 0]   # up, then right
+    with pytest.raises(ValueError, match="step"):
+        DistanceSymbols(0)
+
+
+def test_spotting_options_live_in_the_model_file(tmp_path):
+    from sw_hps.hmm import load_models, save_models
+    models = GestureModels(MODELS.class_names, MODELS.models,
+                           spotting={"threshold_bias": -0.5, "end_delay": 6})
+    path = tmp_path / "m.json"
+    save_models(models, path)
+    loaded = load_models(path)
+    assert loaded.spotting == {"threshold_bias": -0.5, "end_delay": 6, "min_symbols": 4}
+    rec = ContinuousRecogniser(loaded, **loaded.spotting)
+    assert (rec.threshold_bias, rec.end_delay) == (-0.5, 6)

@@ -1,0 +1,44 @@
+"""recognition/continuous.py: how detections are scored against the truth of a
+stream (label, overlap of half the shorter span, each gesture once), the
+summary figures, and one stream spotted end to end by the board's recogniser."""
+import numpy as np
+import pytest
+
+from recognition.continuous import match_detections, spot_stream, stream_summary
+from recognition.streams import GestureStream
+from sw_hps.continuous import ContinuousRecogniser, Detection
+from tests.test_hps_continuous import MODELS
+
+
+def _det(name, first, last, at=None):
+    return Detection(0, name, first, last, 1.0, last + 2 if at is None else at)
+
+
+def test_a_detection_matches_by_label_and_half_overlap_once():
+    spans, labels = [(10, 29), (40, 59)], ["a", "b"]
+    found = [_det("a", 18, 29), _det("a", 12, 28), _det("b", 52, 70), _det("a", 45, 55)]
+    matched, latencies = match_detections(found, spans, labels)
+    # 18..29 overlaps 12 of its own 12 frames: a match; the second "a" finds
+    # its gesture taken (a command twice); 52..70 overlaps 8 of the shorter
+    # span's 19 frames (< half); a wrong label never matches
+    assert matched == [0, -1, -1, -1]
+    assert latencies == [2]
+
+
+def test_summary_figures():
+    s = stream_summary(true_count=10, detections=9, correct=8, latencies=[1, 3, 5],
+                       transit_frames=18_000, false_commands=1, fps=30.0)
+    assert s["precision"] == pytest.approx(8 / 9) and s["recall"] == pytest.approx(0.8)
+    assert s["f1"] == pytest.approx(2 * 8 / 19)
+    assert s["latency_median_frames"] == 3 and s["false_commands_per_10_min"] == pytest.approx(1.0)
+
+
+def test_spot_stream_names_a_drawn_gesture():
+    # up-right's symbols drawn as a path: right (0) then up (2), twice, 2 px a frame
+    moves = [(2, 0)] * 6 + [(0, -2)] * 6 + [(2, 0)] * 6 + [(0, -2)] * 6
+    still = [(0, 0)] * 15
+    points = np.cumsum([(100, 100)] + still + moves + still, axis=0)
+    stream = GestureStream(points, np.array([[15, 39]]), np.array(["up-right"]))
+    found = spot_stream(ContinuousRecogniser(MODELS, end_delay=5), stream.points, step=4)
+    matched, _ = match_detections(found, stream.spans, stream.labels)
+    assert [d.name for d in found] == ["up-right"] and matched == [0]
