@@ -60,6 +60,11 @@ def main(argv=None) -> int:
     ap.add_argument("--step", type=int, default=6, help="pixels of travel per symbol")
     ap.add_argument("--json", default=str(ROOT / "build" / "continuous_recognition.json"))
     args = ap.parse_args(argv)
+    from recognition.hmm_train import MAX_STATES
+    if not 1 <= args.states <= MAX_STATES:
+        ap.error(f"--states must be in 1..{MAX_STATES}, got {args.states}")
+    if not 1 <= args.step <= 1000:
+        ap.error(f"--step must be in 1..1000 pixels, got {args.step}")
     data = load_trajectories(DOLLAR)
     if args.subjects:
         try:

@@ -18,9 +18,9 @@ sum there is kept but never output).
 The sums of :attr:`ColumnSum.GROUP` disparities share one memory word at
 address x, so a group has one address register instead of a counter per
 disparity (x - d in a memory of ``width - d`` words, until issue 27): the
-same M10K count at 640x480 (8 memories of 60 bits against 48 of 10), 4 % more
-bits (``width * D`` sums, eq. 20's term, against the triangle without the
-x < d columns) and about 1,400 flip-flops fewer.
+same M10K count at 640x480 (8 memories of 60 bits against 48 of 10) and 4 %
+more bits (``width * D`` sums, eq. 20's term, against the triangle without
+the x < d columns); the registers saved are in hdl/README.md.
 """
 from __future__ import annotations
 
@@ -138,6 +138,7 @@ class ColumnSum(wiring.Component):
                           for kind, terms in (("enter", p.enter), ("leave", p.leave)))
         pos = RasterPosition(w, h, 0, "row").attach(m, pos_beat_1, first_1)
         out_pos = RasterPosition(w, h, self.lag, "out").attach(m, out_beat_1, first_1)
+
         def entering(x, y):
             return (y >= 0) & (y < h)
 

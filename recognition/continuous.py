@@ -32,14 +32,13 @@ __all__ = ["spot_stream", "match_detections", "leave_one_subject_out", "stream_s
 BIAS_GRID = (-2.0, -1.5, -1.25, -1.0, -0.75, -0.5, -0.25, 0.0)
 
 
-def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
-                scale: float = 1.0) -> list[Detection]:
+def spot_stream(recogniser: ContinuousRecogniser, points, step: int) -> list[Detection]:
     """The gestures ``recogniser`` names in one stream of positions (one per
-    frame; ``scale`` turns them into the integer units of ``step``)."""
+    frame, in pixels, rounded to the integers ``step`` counts in)."""
     recogniser.reset()
     symbols = DistanceSymbols(step)
     named = []
-    points = np.rint(np.asarray(points, dtype=np.float64) * scale).astype(np.int64)
+    points = np.rint(np.asarray(points, dtype=np.float64)).astype(np.int64)
     for frame, point in enumerate(points):
         named += recogniser.step(frame, symbols.push(point))
     named += recogniser.flush(len(points) - 1)

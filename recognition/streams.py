@@ -34,7 +34,7 @@ from sim.gesture_shapes import minimum_jerk
 from .datasets import TrajectorySet, save_npz
 
 __all__ = ["GestureStream", "join_stream", "subject_streams", "save_streams", "load_streams",
-           "PAUSE_RANGE"]
+           "check_range", "PAUSE_RANGE"]
 
 #: Largest pause a stream may hold between two gestures, steps.
 PAUSE_RANGE = (0, 10_000)
@@ -81,11 +81,13 @@ def _check_spans(spans: np.ndarray, length: int, name: str) -> None:
         raise ValueError(f"{name} must rise and must not overlap")
 
 
-def _check_range(name: str, value, lo: int, hi: int) -> tuple[int, int]:
+def check_range(name: str, value, lo: int, hi: int) -> tuple[int, int]:
+    """``value`` (two integers, or the text ``"MIN-MAX"``) as two integers
+    MIN <= MAX in [lo, hi]; ``ValueError`` naming ``name``."""
     try:
-        a, b = (int(v) for v in value)
+        a, b = (int(v) for v in (value.split("-") if isinstance(value, str) else value))
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be two integers MIN, MAX in [{lo}, {hi}], "
+        raise ValueError(f"{name} must be two integers MIN, MAX (or MIN-MAX) in [{lo}, {hi}], "
                          f"got {value!r}") from None
     if not lo <= a <= b <= hi:
         raise ValueError(f"{name} must satisfy {lo} <= MIN <= MAX <= {hi}, got {a}, {b}")
@@ -116,7 +118,7 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
     each but the last a pause of ``pause`` = (MIN, MAX) steps (uniform; the
     hand still at the gesture's end), then the transit to the next one's start
     at the pace of the two gestures (their median step)."""
-    pause = _check_range("pause", pause, *PAUSE_RANGE)
+    pause = check_range("pause", pause, *PAUSE_RANGE)
     parts = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in parts]
     labels = [str(label) for label in labels]
     if not parts or len(parts) != len(labels):

@@ -30,6 +30,7 @@ class model at or before its last step is dropped, so nothing is named twice.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -96,9 +97,16 @@ class Detection:
     score: float
     named_at: int
 
-    def to_dict(self) -> dict:
-        return {"name": self.name, "first": self.first, "last": self.last,
-                "score": round(self.score, 4), "named_at": self.named_at}
+
+class _Candidate(NamedTuple):
+    """The best gesture end seen and not yet named."""
+    class_index: int
+    first_symbol: int       # symbols are counted from the last reset
+    last_symbol: int
+    first_frame: int
+    last_frame: int
+    score: float
+    found_at: int           # the frame it was last improved
 
 
 class ContinuousRecogniser:
@@ -113,7 +121,8 @@ class ContinuousRecogniser:
 
     Call :meth:`step` once per frame with that frame's symbol (None when the
     hand did not move enough for one), :meth:`flush` when the hand leaves or
-    the source ends; both return the gestures named then.
+    the source ends; both return the gestures named then. The state is fixed
+    in size: a stream of any length runs in constant memory.
     """
 
     def __init__(self, models, **options):
@@ -126,15 +135,13 @@ class ContinuousRecogniser:
         self.min_symbols = opts["min_symbols"]
         self.class_names = tuple(models.class_names)
         hmms = list(models.models)
-        sizes = [m.num_states for m in hmms]
-        self._offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        n = int(self._offsets[-1])
-        self._last = self._offsets[1:] - 1                      # each class' final state
+        offsets = np.concatenate([[0], np.cumsum([m.num_states for m in hmms])])
+        n = int(offsets[-1])
+        self._last = offsets[1:] - 1                      # each class' final state
         with np.errstate(divide="ignore"):
             # the class models as one block-diagonal chain (-inf between classes)
             self._log_a = np.full((n, n), _NEG)
-            for c, m in enumerate(hmms):
-                lo, hi = self._offsets[c], self._offsets[c + 1]
+            for m, lo, hi in zip(hmms, offsets[:-1], offsets[1:]):
                 self._log_a[lo:hi, lo:hi] = np.log(m.A)
             self._log_pi = np.concatenate([np.log(m.pi) for m in hmms])
             self._log_b = np.concatenate([np.log(m.B) for m in hmms]).T.copy()   # (M, n)
@@ -144,21 +151,20 @@ class ContinuousRecogniser:
         self._t_enter = -np.log(len(t_a))
         self._inner = np.ones(n, bool)              # not a final state
         self._inner[self._last] = False
+        self._frame = -1
         self.reset()
 
     def reset(self) -> None:
-        """Forget everything (a new stream)."""
+        """Forget every path and what is pending (a new stream, or the hand left)."""
         n = len(self._log_pi)
         self._v = np.full(n, _NEG)
-        self._start = np.zeros(n, np.int64)
+        self._start = np.zeros(n, np.int64)         # each path's first symbol
+        self._start_frame = np.zeros(n, np.int64)   # and its frame
         self._t = np.full(len(self._t_log_a), _NEG)
         self._loop = 0.0
-        self._symbols = 0                # symbols taken so far
-        self._frame_of = []              # frame of each symbol
-        self._pending = None             # (class, start symbol, end symbol, score, frame)
-        self._barrier = -1               # paths must start after this symbol
+        self._symbols = 0
+        self._pending = None
         self._longer = False             # a longer gesture may hold the pending one
-        self._frame = -1
 
     def step(self, frame: int, symbol=None) -> list[Detection]:
         """Take frame ``frame`` (rising) and its symbol (0..M-1, or None)."""
@@ -166,7 +172,7 @@ class ContinuousRecogniser:
         self._frame = frame
         named = self._take(int(symbol), frame) if symbol is not None else []
         if self._pending is not None:
-            waited = frame - self._pending[4]
+            waited = frame - self._pending.found_at
             if waited >= self.end_delay and (not self._longer or waited >= 4 * self.end_delay):
                 named.append(self._name(frame))
         return named
@@ -176,10 +182,7 @@ class ContinuousRecogniser:
         pending and start afresh (no path runs across)."""
         frame = self._frame if frame is None else int(frame)
         named = [self._name(frame)] if self._pending is not None else []
-        symbols, frames = self._symbols, self._frame_of
         self.reset()
-        self._symbols, self._frame_of = symbols, frames
-        self._barrier = symbols - 1
         self._frame = frame
         return named
 
@@ -188,7 +191,6 @@ class ContinuousRecogniser:
             raise ValueError(f"symbol must be in [0, {self._log_b.shape[0] - 1}] or None, "
                              f"got {symbol}")
         k = self._symbols
-        self._frame_of.append(frame)
         loop = self._loop
         # class models: stay on the chain, or enter from the loop
         moved = self._v[:, None] + self._log_a
@@ -200,7 +202,7 @@ class ContinuousRecogniser:
         entering = enter > stay
         v = np.where(entering, enter, stay) + self._log_b[symbol]
         start = np.where(entering, k, self._start[best_from])
-        v[start <= self._barrier] = _NEG
+        start_frame = np.where(entering, frame, self._start_frame[best_from])
         # the threshold model
         t = np.maximum((self._t[:, None] + self._t_log_a).max(axis=0), loop + self._t_enter)
         t = t + self._t_log_b[symbol] + self.threshold_bias
@@ -213,34 +215,38 @@ class ContinuousRecogniser:
             ends = ends - loop
             t_best = t_best - loop
             loop = 0.0
-        self._v, self._start, self._t, self._loop = v, start, t, loop
+        self._v, self._start, self._start_frame = v, start, start_frame
+        self._t, self._loop = t, loop
         self._symbols = k + 1
-        first = int(start[self._last[best]])
+        end = self._last[best]
+        first = int(start[end])
         named = []
         if ends[best] > t_best and k - first + 1 >= self.min_symbols:
-            score = float(ends[best] - t_best)
+            found = _Candidate(best, first, k, int(start_frame[end]), frame,
+                               float(ends[best] - t_best), frame)
             pending = self._pending
-            if pending is not None and first > pending[2]:
+            if pending is not None and first > pending.last_symbol:
                 # a gesture after the pending one: that one is over
                 named.append(self._name(frame))
                 pending = None
             # a better end; the same path on at no loss (the end state's run);
             # another class' gesture that holds the pending one
-            if pending is None or score > pending[3] \
-                    or (best == pending[0] and first == pending[1] and score >= pending[3]) \
-                    or (best != pending[0] and first <= pending[1]):
-                self._pending = (best, first, k, score, frame)
+            if pending is None or found.score > pending.score \
+                    or (best == pending.class_index and first == pending.first_symbol
+                        and found.score >= pending.score) \
+                    or (best != pending.class_index and first <= pending.first_symbol):
+                self._pending = found
         pending = self._pending
         # a longer gesture still under way over the pending one's symbols,
         # explaining them better than the threshold model: wait for it
         self._longer = pending is not None and bool(
-            ((v > t_best) & self._inner & (start <= pending[1])).any())
+            ((v > t_best) & self._inner & (start <= pending.first_symbol)).any())
         return named
 
     def _name(self, frame: int) -> Detection:
-        c, first, last, score, _ = self._pending
-        self._pending = None
-        self._barrier = max(self._barrier, last)
-        self._v[self._start <= last] = _NEG
-        return Detection(int(c), self.class_names[c], int(self._frame_of[first]),
-                         int(self._frame_of[last]), score, int(frame))
+        """Name the pending gesture; every path that began within its symbols
+        ends here, so what it used starts nothing else."""
+        p, self._pending = self._pending, None
+        self._v[self._start <= p.last_symbol] = _NEG
+        return Detection(int(p.class_index), self.class_names[p.class_index], p.first_frame,
+                         p.last_frame, p.score, frame)

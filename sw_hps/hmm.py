@@ -42,8 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM", "GestureModels",
-           "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
+from .continuous import check_spotting
+
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM",
+           "GestureModels", "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
            "save_models"]
 
 MODEL_FORMAT = "stereogest-hmm"
@@ -233,7 +235,6 @@ class GestureModels:
         object.__setattr__(self, "models", tuple(self.models))
         object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
         if self.spotting is not None:
-            from .continuous import check_spotting
             object.__setattr__(self, "spotting", check_spotting(self.spotting))
         ForwardStream(self.models)  # checks the symbol counts agree
 
@@ -311,11 +312,8 @@ class GestureModels:
         if rejection is not None and (not isinstance(rejection, dict)
                                       or "thresholds" not in rejection):
             raise ValueError("rejection must be null or an object with thresholds")
-        try:
-            result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
-                         None if rejection is None else rejection["thresholds"], spotting)
-        except ValueError as exc:
-            raise ValueError(str(exc)) from None
+        result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
+                     None if rejection is None else rejection["thresholds"], spotting)
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")

@@ -55,32 +55,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_json_switch(parser)
 
 
-def _pause(text: str) -> tuple[int, int]:
-    from recognition.streams import PAUSE_RANGE
-    lo, hi = PAUSE_RANGE
-    parts = str(text).split("-")
-    try:
-        a, b = (int(v) for v in parts) if len(parts) == 2 else (None, None)
-    except ValueError:
-        a = b = None
-    if a is None or not lo <= a <= b <= hi:
-        raise ValueError(f"--pause must be MIN-MAX with {lo} <= MIN <= MAX <= {hi}, "
-                         f"got {text!r}")
-    return a, b
-
-
 def _join(args, output) -> int:
     from recognition.datasets import load_trajectories
-    from recognition.streams import save_streams, subject_streams
-    pause = _pause(args.pause)
+    from recognition.streams import PAUSE_RANGE, check_range, save_streams, subject_streams
+    # (a library message naming pause or per_stream is named as its option by
+    # stereogest.cli.in_option_names)
+    pause = check_range("pause", args.pause, *PAUSE_RANGE)
     data = load_trajectories(args.join)
     if data.subject is None:
         raise ValueError(f"--join: {args.join} has no subject (or writer) key: streams are "
                          f"per person")
-    try:
-        streams = subject_streams(data, args.per_stream, args.seed, pause=pause)
-    except ValueError as exc:
-        raise ValueError(f"--{exc}".replace("per_stream", "per-stream", 1)) from None
+    streams = subject_streams(data, args.per_stream, args.seed, pause=pause)
     save_streams(streams, output)
     gestures = sum(len(s.spans) for s in streams)
     steps = sum(len(s) for s in streams)
