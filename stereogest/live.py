@@ -55,7 +55,7 @@ class LiveSession:
         self.recognised: list[dict] = []
         self.state = {"frame": -1, "fps": 0.0, "centroid": None, "flag": False,
                       "recognised": None, "telegram": None, "recognised_at": None,
-                      "history": [], "done": False, "error": None}
+                      "history": [], "gestures": [], "done": False, "error": None}
         self.pictures: dict[str, bytes] = {}
         self._cents: list = []
         self._previous = None      # the last frame's centroid (hand tracking's gate)
@@ -63,6 +63,9 @@ class LiveSession:
         self._first = 0            # frame number of _cents[0]
         self._times: list = []
         self._was_flagged = False
+        self._traj = None          # the last frame's trajectory (track() of the history)
+        #: every recognised gesture: name, first and last flagged frame, telegram, score
+        self.gestures: list[dict] = []
 
     def step(self, left_bytes, right_bytes) -> dict:
         """Process one frame pair (4:2:2 byte streams); returns the new state."""
@@ -83,6 +86,7 @@ class LiveSession:
             self._first += drop
         n = self.frames
         traj = track(np.array(self._cents, np.int64), np.array(self._areas, np.int64), p)
+        self._traj = traj
         flag = bool(traj.flag[-1])
         ended = self._was_flagged and not flag
         self._was_flagged = flag
@@ -115,16 +119,31 @@ class LiveSession:
 
     def _recognise(self, traj, n: int) -> None:
         """The board application on the frames so far (a simulated FIFO): the
-        gesture that just ended."""
-        from sw_hps.simulated import run_on_trajectory
-        board = run_on_trajectory(self.models, traj.smoothed[:, 0], traj.smoothed[:, 1],
-                                  traj.flag, pixels=False)
-        name = board.recognised[-1] if board.recognised else None
-        telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
+        gesture that just ended, named at frame ``n``."""
+        from stereogest.pipeline_outputs import board_results
+        results = board_results(self.models, traj, first_frame=self._first)
+        if not results:
+            return
+        last = results[-1]
         with self.lock:
-            self.state.update(recognised=name, telegram=telegram, recognised_at=n)
+            if last["outcome"] == "recognised":
+                self.gestures = self.gestures + [{key: last[key] for key in (
+                    "name", "first", "last", "telegram", "score")}]
+                self.state["gestures"] = self.gestures
+                self.state.update(recognised=last["name"], telegram=last["telegram"],
+                                  recognised_at=n)
             self.state["history"] = (self.state["history"] + [
-                {"frame": n, "recognised": name, "telegram": telegram}])[-10:]
+                {"frame": n, "recognised": last["name"], "telegram": last["telegram"],
+                 "first": last["first"], "last": last["last"]}])[-10:]
+
+    def end(self) -> None:
+        """The source ended (a clip's or video's last frame, ``--frames``
+        reached, Ctrl-C): a gesture still flagged ends here, as when the
+        cameras hold the hand still (what ``stereogest pipeline`` does at a
+        clip's end), and is named."""
+        if self._was_flagged and self._traj is not None:
+            self._was_flagged = False
+            self._recognise(self._traj, self.frames)
 
     def snapshot(self) -> tuple[dict, dict]:
         with self.lock:
@@ -160,6 +179,8 @@ def run_source(session: LiveSession, pairs, *, fps: float | None = None,
     except (ValueError, OSError) as exc:     # a source ends badly: say so on the page
         error = str(exc)
     finally:
+        if error is None:
+            session.end()
         session.finish(error)
     if error is not None:
         raise ValueError(error)
@@ -181,7 +202,8 @@ img {{ width: {w}px; height: {h}px; background: #333; display: block; }}
 <div id="status">frame <span id="frame">-</span> &middot; <span id="fps">0</span> frames/s
 &middot; <span id="flag">no gesture</span> &middot; centroid <span id="centroid">-</span></div>
 <div>last recognised gesture: <span id="gesture">none yet</span>
-<span id="telegram"></span></div><p></p>
+<span id="telegram"></span></div>
+<div>commands sent: <span id="commands">none yet</span></div><p></p>
 <div class="grid">
 {figures}
 </div>
@@ -206,6 +228,9 @@ async function tick() {{
       document.getElementById('telegram').textContent =
         s.telegram ? ' (NXT telegram ' + s.telegram + ', frame ' + s.recognised_at + ')' : '';
     }}
+    if (s.gestures.length)
+      document.getElementById('commands').textContent = s.gestures.map(
+        g => g.name + ' (frames ' + g.first + '-' + g.last + ')').join(', ');
     if (s.error) document.getElementById('status').textContent = 'stopped: ' + s.error;
   }} catch (e) {{}}
   setTimeout(tick, 100);

@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 __all__ = ["STAGES", "STALE", "parse_frames", "write_outputs", "progress_printer",
            "shipped_model_path", "recognise", "warn_if_empty"]
 
@@ -40,7 +42,8 @@ def parse_frames(text: str | None, frames: int, motion: tuple[int, int] | None) 
 
 
 def write_outputs(outdir: Path, clip, trajectory, kept, params, seconds: float,
-                  recognised: str | None = None, telegram: str | None = None) -> dict:
+                  recognised: str | None = None, telegram: str | None = None,
+                  gestures: list | None = None) -> dict:
     """trajectory.csv, frame_NNNN_<stage>.png, frame_NNNN_sheet.png (the stages
     labelled, for people), trajectory.png, summary.json."""
     from sim.images import write_png
@@ -80,6 +83,7 @@ def write_outputs(outdir: Path, clip, trajectory, kept, params, seconds: float,
                "gesture_frames": int(trajectory.flag.sum()),
                "symbols": "".join(str(s) for s in symbols),
                "recognised": recognised, "telegram": telegram,
+               "gestures": gestures if gestures is not None else [],
                "seconds": round(seconds, 2), "params": params.as_dict()}
     tmp = outdir / "summary.json.part"
     tmp.write_text(json.dumps(summary, indent=2) + "\n")
@@ -119,15 +123,62 @@ def load_board_models(path=None):
         raise ValueError(f"{path}: {exc}") from None
 
 
-def recognise(models, trajectory):
-    """The board application on a trajectory (a simulated FIFO): the last
-    recognised gesture (None) and its NXT telegram (hex, or None)."""
+def flagged_spans(flag) -> list[tuple[int, int]]:
+    """First and last frame of every run of flagged frames, in order."""
+    flag = np.asarray(flag, bool).astype(np.int8)
+    edges = np.diff(np.concatenate([[0], flag, [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(),
+                    (np.flatnonzero(edges == -1) - 1).tolist()))
+
+
+def board_results(models, trajectory, first_frame: int = 0) -> list[dict]:
+    """The board application on a trajectory (a simulated FIFO; a gesture
+    still flagged at the trajectory's end ends there, as the FIFO then holds
+    still frames): :func:`gesture_entries` of what it finished."""
     from sw_hps.simulated import run_on_trajectory
     board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
                               trajectory.flag, pixels=False)
-    recognised = board.recognised[-1] if board.recognised else None
-    telegram = board.telegrams[-1].hex(" ") if board.telegrams else None
-    return recognised, telegram
+    return gesture_entries([r.to_dict() for r in board.results], trajectory.flag, first_frame)
+
+
+def gesture_entries(results: list[dict], flag, first_frame: int = 0) -> list[dict]:
+    """The board application's results (``GestureResult.to_dict()``, in order)
+    beside the flagged runs of ``flag`` they came from: one entry per gesture,
+    with ``outcome`` (recognised, rejected or dropped), ``name`` (None unless
+    recognised), ``first`` and ``last`` (its flagged frames, numbered from
+    ``first_frame``), ``telegram`` (hex, None unless sent) and ``score`` (the
+    named class' log-likelihood, None unless recognised)."""
+    spans = flagged_spans(flag)
+    # the application finishes one gesture per flagged run, in order
+    if len(spans) != len(results):
+        spans = [(None, None)] * len(results)
+    out = []
+    for (first, last), r in zip(spans, results):
+        recognised = r["outcome"] == "recognised"
+        score = r["scores"][r["class_index"]] if recognised else None
+        out.append({
+            "outcome": r["outcome"], "name": r["class_name"] if recognised else None,
+            "first": None if first is None else first + first_frame,
+            "last": None if last is None else last + first_frame,
+            "telegram": r["telegram"] if r["sent"] else None,
+            "score": None if score is None else round(float(score), 3)})
+    return out
+
+
+def recognised_gestures(results: list[dict]) -> list[dict]:
+    """The recognised entries of :func:`board_results` as ``--json`` lists
+    them: ``name``, ``first``, ``last``, ``telegram``, ``score``."""
+    return [{key: r[key] for key in ("name", "first", "last", "telegram", "score")}
+            for r in results if r["outcome"] == "recognised"]
+
+
+def recognise(models, trajectory):
+    """The board application on a trajectory (a simulated FIFO): the last
+    recognised gesture (None) and its NXT telegram (hex, or None)."""
+    gestures = recognised_gestures(board_results(models, trajectory))
+    if not gestures:
+        return None, None
+    return gestures[-1]["name"], gestures[-1]["telegram"]
 
 
 def warn_if_empty(trajectory, params, width: int, height: int, quiet: bool = False) -> None:

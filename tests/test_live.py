@@ -113,7 +113,63 @@ def test_command_replays_a_clip(tmp_path, gesture, capsys):
     assert out[0].startswith(f"live view of clip {path} (320x240) on http://127.0.0.1:")
     assert out[-2] == "5 frame pairs; last recognised: none"
     assert json.loads(out[-1]) == {"source": f"clip {path}", "width": 320, "height": 240,
-                                   "frames": 5, "recognised": None, "telegram": None}
+                                   "frames": 5, "recognised": None, "telegram": None,
+                                   "gestures": []}
+
+
+@pytest.fixture(scope="module")
+def held_clips(tmp_path_factory):
+    """Every gesture, each clip ending inside the spotting hold: the hand is
+    still for fewer frames than the hold at the clip's last frame."""
+    from sim.clip import save_clip
+    from sim.gesture_shapes import GESTURE_NAMES
+    hold = PipelineParams.for_frame(320).spot_hold
+    root = tmp_path_factory.mktemp("held")
+    return {name: save_clip(render_clip(name, 5 + k, 320, 240, n_pre_rest=3,
+                                        n_post_rest=hold // 2), root / name)
+            for k, name in enumerate(GESTURE_NAMES)}
+
+
+def test_live_and_pipeline_name_the_same_gestures(held_clips, tmp_path, capsys):
+    """`live` and `pipeline` on the same clips name the same gestures with the
+    same frame spans and telegrams (issue 29), the last one at the source's
+    end, inside the hold; `live --json` lists them."""
+    from sim.clip import load_clip
+    for name, path in held_clips.items():
+        clip = load_clip(path)
+        assert main(["pipeline", str(path), "-o", str(tmp_path / name), "--json",
+                     "--quiet"]) == 0
+        batch = json.loads(capsys.readouterr().out.splitlines()[-1])
+        assert main(["live", "--clip", str(path), "--fast", "--port", "0", "--quiet",
+                     "--frames", str(clip.frames), "--json"]) == 0
+        out = capsys.readouterr().out.splitlines()
+        live = json.loads(out[-1])
+        assert batch["recognised"] == name, (name, batch)
+        assert live["gestures"] == batch["gestures"] and live["gestures"], (name, live, batch)
+        assert live["gestures"][-1]["last"] == clip.frames - 1       # flagged to the end
+        assert (live["recognised"], live["telegram"]) == (batch["recognised"],
+                                                          batch["telegram"])
+        assert out[-2] == (f"{clip.frames} frame pairs; last recognised: {name} "
+                           f"(NXT telegram {batch['telegram']})")
+
+
+def test_session_names_every_gesture_once(models):
+    """Two gestures in one source: each named once, when it ends, with its own
+    frame span (the second at the source's end); the page's state lists both."""
+    clips = [render_clip(g, 2, 320, 240, n_pre_rest=3, n_post_rest=r)
+             for g, r in (("stop", 40), ("left", 8))]
+    left = np.concatenate([c.left for c in clips])
+    right = np.concatenate([c.right for c in clips])
+    params = PipelineParams.for_frame(320)
+    s = LiveSession(params, models)
+    run_source(s, zip(left, right))
+    trajectory, _ = run_clip(left, right, params)
+    from stereogest.pipeline_outputs import board_results, flagged_spans, recognised_gestures
+    batch = recognised_gestures(board_results(models, trajectory))
+    assert [g["name"] for g in s.gestures] == ["stop", "left"]
+    assert s.gestures == batch == s.state["gestures"]
+    assert [(g["first"], g["last"]) for g in s.gestures] == flagged_spans(trajectory.flag)
+    assert [h["recognised"] for h in s.state["history"]] == ["stop", "left"]
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -185,3 +241,27 @@ def test_page_in_a_headless_browser(session, tmp_path):
     assert f'<span id="frame">{s.frames - 1}</span>' in dom
     assert '<span id="gesture">rotate-right</span>' in dom
     assert f"NXT telegram {s.state['telegram']}" in dom
+
+
+@pytest.mark.skipif(_chromium() is None,
+                    reason="no Chromium: .ci/run installs Debian's chromium when it can "
+                           "(apt-get, root); the session's state is tested above without it")
+def test_page_names_a_gesture_the_source_ended_inside(held_clips, models):
+    """A clip that ends inside the spotting hold: after the source ended, the
+    page shows the gesture's name and the command with its frame span."""
+    from sim.clip import load_clip
+    clip = load_clip(held_clips["stop"])
+    s = LiveSession(PipelineParams.for_frame(320), models)
+    run_source(s, zip(clip.left, clip.right))
+    assert s.state["done"] and s.state["flag"]        # still flagged at the last frame
+    server = LiveServer(s, 320, 240, port=0)
+    try:
+        dom = subprocess.run(
+            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+             "--virtual-time-budget=3000", "--dump-dom", server.url],
+            capture_output=True, text=True, timeout=120).stdout
+    finally:
+        server.close()
+    (g,) = s.gestures
+    assert '<span id="gesture">stop</span>' in dom
+    assert f'<span id="commands">stop (frames {g["first"]}-{clip.frames - 1})</span>' in dom

@@ -6,7 +6,9 @@ run the unmodified board application (sw_hps) against those registers through
 a simulated-bus backend; print the recognised gesture and the NXT telegram
 bytes seen on the UART pin. The golden model runs beside it: it draws a picture
 of every stage and checks the FIFO words and the VGA frame. The last line is
-JSON with gesture (rendered), recognised and telegram (hex).
+JSON with gesture (rendered), recognised and telegram (hex), and gestures:
+every gesture the application recognised (name, first and last flagged frame,
+telegram, score).
 
 The exit status is 1 when the demo fails its own gesture: the board
 application recognised another gesture, or none, than the one rendered (or
@@ -154,8 +156,9 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
     from sim.images import write_png
     from sim.model.pipeline import run_clip
     from sim.render import render_clip
-    from stereogest.pipeline_outputs import (STALE, parse_frames, progress_printer, recognise,
-                                             write_outputs)
+    from stereogest.pipeline_outputs import (STALE, board_results, gesture_entries,
+                                             parse_frames, progress_printer,
+                                             recognised_gestures, write_outputs)
 
     start = time.perf_counter()
     if args.clip is not None:
@@ -212,7 +215,9 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               "flagged": int(trajectory.flag.sum()), "symbols": summary["symbols"]}
 
     if args.backend == "model":
-        recognised, telegram = recognise(models, trajectory)
+        gestures = recognised_gestures(board_results(models, trajectory))
+        recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
+            else (None, None)
         print(f"board application (simulated FIFO): recognised {recognised or 'nothing'}"
               + (f", NXT telegram {telegram}" if telegram else ""))
     else:
@@ -221,6 +226,7 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                   f"hand still for {extra} more frames (trajectory.csv includes them)")
         write_png(out / "vga.png", result.vga, bits=8)
         recognised = result.recognised
+        gestures = recognised_gestures(gesture_entries(result.results, trajectory.flag))
         uart_hex = result.uart_bytes.hex(" ")
         cps = result.stats.get("cycles_per_second", 0)
         print(f"hardware: {result.cycles:,} pipeline cycles in {result.seconds:.1f} s "
@@ -250,12 +256,12 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                       held_frames=extra, recognised_all=result.recognised_all,
                       uart=result.uart_bytes.hex(" "))
         if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram):
-            report.update(recognised=recognised, telegram=telegram)
+            report.update(recognised=recognised, telegram=telegram, gestures=gestures)
             print(json.dumps(report))
             print("stereogest demo: error: the hardware and the golden model disagree "
                   "(see above)", file=sys.stderr)
             return 1
-    report.update(recognised=recognised, telegram=telegram,
+    report.update(recognised=recognised, telegram=telegram, gestures=gestures,
                   seconds=round(time.perf_counter() - start, 1))
     print(json.dumps(report))
     failure = gesture_failure(clip.gesture, recognised, models.class_names)

@@ -3,7 +3,10 @@ frame on two webcams (camera indices), two video files or a clip, and a local
 page (127.0.0.1 only) shows both cameras, the six stages of thesis Table 22
 (the board's VGA choices), the trajectory and the last recognised gesture with
 its NXT telegram, refreshed as frames arrive. Open the printed address in a
-browser; Ctrl-C stops. 320x240 keeps up with 15 frames/s or more on a 2-core
+browser; Ctrl-C stops. When the source ends (a clip's or video's last frame,
+--frames reached, or Ctrl-C on any source, webcams included) with a gesture
+still flagged, that gesture ends there and is named, as 'stereogest pipeline'
+names a gesture a clip ends inside; --json lists every recognised gesture. 320x240 keeps up with 15 frames/s or more on a 2-core
 machine (benchmarks/bench_live.py)."""
 from __future__ import annotations
 
@@ -137,5 +140,6 @@ def run(args) -> int:
         state, _ = session.snapshot()
         print(json.dumps({"source": source, "width": width, "height": height,
                           "frames": session.frames, "recognised": state["recognised"],
-                          "telegram": state["telegram"]}), flush=True)
+                          "telegram": state["telegram"], "gestures": state["gestures"]}),
+              flush=True)
     return 0

@@ -14,7 +14,8 @@ import sys
 import time
 
 from stereogest.pipeline_outputs import (STALE, load_board_models, parse_frames,
-                                         progress_printer, recognise, warn_if_empty,
+                                         progress_printer, recognised_gestures,
+                                         board_results, warn_if_empty,
                                          write_outputs)
 
 NAME = "pipeline"
@@ -97,9 +98,11 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
                                     rectification=rectification)
     seconds = time.perf_counter() - start
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
-    recognised, telegram = recognise(models, trajectory)
+    gestures = recognised_gestures(board_results(models, trajectory))
+    recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
+        else (None, None)
     summary = write_outputs(outdir, clip, trajectory, kept, params, seconds,
-                            recognised=recognised, telegram=telegram)
+                            recognised=recognised, telegram=telegram, gestures=gestures)
     print(f"{summary['frames']} frames in {seconds:.1f} s, {summary['gesture_frames']} flagged "
           f"as gesture; symbols: {summary['symbols'] or '(none)'}")
     print(f"recognised: {recognised or 'none'}"
@@ -109,5 +112,5 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
     if args.json:
         print(json.dumps({"clip": str(args.clip), **{key: summary[key] for key in (
             "gesture", "frames", "gesture_frames", "symbols", "recognised", "telegram",
-            "seconds")}}))
+            "gestures", "seconds")}}))
     return 0
