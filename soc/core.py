@@ -42,7 +42,7 @@ from sim.model.vga import SCALE_RANGE
 from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
 from .frame_buffer import NO_INIT_ATTR, VGA_SCALE, FrameBuffer
-from .hps_interface import FIFO_BASE, UART_BASE
+from .hps_interface import DATA_BITS, FIFO_BASE, UART_BASE
 from .ov5642_config import Ov5642Config
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
@@ -72,7 +72,8 @@ class StereogestCore(wiring.Component):
     Parameters
     ----------
     width, height : int
-        Frame size (thesis 640 x 480); the cameras' registers set 640 x 480.
+        Frame size (thesis 640 x 480; at most 1024 x 1024, the FIFO words'
+        coordinates); the cameras' registers set 640 x 480.
     params : sim.model.pipeline.PipelineParams
         Algorithm parameters (thesis run-time values by default).
     rectification : sim.model.rectify.StereoRectification, optional
@@ -131,8 +132,13 @@ class StereogestCore(wiring.Component):
         self.pipeline = GesturePipeline(width, height, params, rectification=rectification,
                                         fifo_depth=sync_fifo_depth)
         record = self.pipeline.o_stream.payload.shape()
-        data_bits = Shape.cast(record["x"].shape).width
-        self.fifo_slave = FifoSlave(data_bits=data_bits, depth=fifo_depth)
+        coord_bits = max(Shape.cast(record[axis].shape).width for axis in ("x", "y"))
+        if coord_bits > DATA_BITS:
+            raise ValueError(f"width and height must be at most "
+                             f"{1 << (DATA_BITS - params.frac_bits)} (the FIFO words' "
+                             f"{DATA_BITS}-bit coordinates), got {width}x{height}")
+        # the register map's width at every frame size: FLAG and PRESENT at bit 18
+        self.fifo_slave = FifoSlave(data_bits=DATA_BITS, depth=fifo_depth)
         self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
         self.config = [Ov5642Config(clk_freq=self.config_freq, table=config_table)
                        for _ in range(2)]
@@ -179,7 +185,8 @@ class StereogestCore(wiring.Component):
         m.d.comb += [fifo.i_stream.valid.eq(rec.valid),
                      fifo.i_stream.payload.x.eq(rec.payload.x),
                      fifo.i_stream.payload.y.eq(rec.payload.y),
-                     fifo.i_stream.payload.flag.eq(rec.payload.flag)]
+                     fifo.i_stream.payload.flag.eq(rec.payload.flag),
+                     fifo.i_stream.payload.present.eq(rec.payload.area != 0)]
         m.submodules.uart_slave = uart = self.uart_slave
         wiring.connect(m, wiring.flipped(self.uart), uart.bus)
         m.d.comb += [self.uart_tx.eq(uart.tx), uart.rx.eq(self.uart_rx)]

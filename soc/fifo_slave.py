@@ -13,8 +13,8 @@ from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_int, check_power_of_two
-from .hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, DATA_BITS, DATO_X, DATO_Y,
-                            FIFO_DEPTH, FIFO_REGISTERS, LONGITUD_X, LONGITUD_Y)
+from .hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, CTRL_STREAM, DATA_BITS, DATO_X,
+                            DATO_Y, FIFO_DEPTH, FIFO_REGISTERS, LONGITUD_X, LONGITUD_Y)
 
 from .avalon import DATA_WIDTH, AvalonSlaveSignature
 
@@ -22,12 +22,14 @@ __all__ = ["FifoSlave", "ADDRESS_WIDTH", "DATA_BITS_RANGE", "DEPTH_RANGE"]
 
 #: Word-address bits: six registers (0x00..0x14) -> word addresses 0..5.
 ADDRESS_WIDTH = FIFO_REGISTERS.address_width
-DATA_BITS_RANGE = (1, DATA_WIDTH)
+#: (one bit above the data carries the streaming mode's FLAG / PRESENT)
+DATA_BITS_RANGE = (1, DATA_WIDTH - 1)
 #: Powers of two only (the pointers wrap by overflowing).
 DEPTH_RANGE = (2, 65536)
 
 _GO_BIT = CTRL_GO.bit_length() - 1
 _CLR_BIT = CTRL_FIFO_CLR.bit_length() - 1
+_STREAM_BIT = CTRL_STREAM.bit_length() - 1
 
 
 class FifoSlave(wiring.Component):
@@ -37,9 +39,10 @@ class FifoSlave(wiring.Component):
 
     Parameters
     ----------
-    data_bits : int in [1, 32]
-        Width of Dato_X / Dato_Y (thesis 10.8 fixed point: 18). Upper bits of
-        the 32-bit word read 0.
+    data_bits : int in [1, 31]
+        Width of Dato_X / Dato_Y (thesis 10.8 fixed point: 18). Bit
+        ``data_bits`` is the streaming mode's FLAG (Dato_X) / PRESENT (Dato_Y);
+        the bits above read 0.
     depth : int, power of two in [2, 65536]
         Entries per FIFO (:data:`soc.hps_interface.FIFO_DEPTH` = 512: one M10K block of
         512 x 18 bits per FIFO). Longitud_X / Longitud_Y count 0..depth.
@@ -49,11 +52,14 @@ class FifoSlave(wiring.Component):
     bus : ``In(AvalonSlaveSignature(3))``
         Word addresses (byte offset / 4), read latency 1, no wait states. Each
         cycle with ``read`` high is one transfer: a read of Dato_X pops once.
-    i_stream : payload ``{x, y: data_bits, flag: 1}`` (always ready)
-        One beat per video frame: the smoothed centroid and the gesture-spotting
-        flag of that frame. While GO is 1 a beat with ``flag`` set pushes (x, y);
-        if either FIFO is full the pair is dropped from both and FIFO-FULL is set.
-        Every beat updates the latest flag (the gesture bit follows it).
+    i_stream : payload ``{x, y: data_bits, flag: 1, present: 1}`` (always ready)
+        One beat per video frame: the smoothed centroid, the gesture-spotting
+        flag of that frame and whether it saw a hand. While GO is 1 a beat with
+        ``flag`` set pushes (x, y) (thesis mode), or every beat pushes
+        (x | flag << data_bits, y | present << data_bits) (STREAM = 1: streaming
+        mode); if either FIFO is full the pair is dropped from both and
+        FIFO-FULL is set. Every beat updates the latest flag (the gesture bit
+        follows it).
     go : Out(1)
         Control.GO.
     gesture : Out(1)
@@ -67,7 +73,7 @@ class FifoSlave(wiring.Component):
     Same-cycle bus access and push: both take effect, the bus access first. A
     read returns the state at the start of the cycle (a pop of an empty FIFO
     returns 0 even if a pair is pushed in that cycle); the push then sees the
-    state after the access: a write of GO gates that cycle's push, a FIFO-CLR
+    state after the access: a write of GO or STREAM rules that cycle's push, a FIFO-CLR
     empties the FIFOs before the pair is pushed, and a pop of a full FIFO makes
     room for it. This is the order ``read32`` / ``write32`` then ``push_frame``
     of :class:`~sw_hps.simulated.SimulatedFifoPeripheral`. Word addresses 6 and 7
@@ -80,7 +86,8 @@ class FifoSlave(wiring.Component):
         super().__init__({
             "bus": In(AvalonSlaveSignature(ADDRESS_WIDTH)),
             "i_stream": In(stream.Signature(data.StructLayout(
-                {"x": self.data_bits, "y": self.data_bits, "flag": 1}), always_ready=True)),
+                {"x": self.data_bits, "y": self.data_bits, "flag": 1, "present": 1}),
+                always_ready=True)),
             "go": Out(1),
             "gesture": Out(1),
             "full": Out(1),
@@ -105,6 +112,7 @@ class FifoSlave(wiring.Component):
         ptr_bits = depth.bit_length() - 1
 
         go = Signal()
+        streaming = Signal()
         flag = Signal()
         full = Signal()
         wp = Signal(ptr_bits)  # one write pointer: pushes always go to both FIFOs
@@ -112,15 +120,17 @@ class FifoSlave(wiring.Component):
         ctrl_write = bus.write & (bus.address == CONTROL // 4)
         clr = ctrl_write & bus.writedata[_CLR_BIT]
         go_next = Mux(ctrl_write, bus.writedata[_GO_BIT], go)
-        m.d.sync += go.eq(go_next)
+        streaming_next = Mux(ctrl_write, bus.writedata[_STREAM_BIT], streaming)
+        m.d.sync += [go.eq(go_next), streaming.eq(streaming_next)]
         with m.If(beat.valid):
             m.d.sync += flag.eq(beat.payload.flag)
-        push = beat.valid & beat.payload.flag & go_next
+        push = beat.valid & (beat.payload.flag | streaming_next) & go_next
         wp_base = Mux(clr, 0, wp)
 
         fifos = {}
-        for axis, offset in (("x", DATO_X), ("y", DATO_Y)):
-            mem = memory.Memory(shape=self.data_bits, depth=depth, init=[])
+        for axis, offset, mark in (("x", DATO_X, beat.payload.flag),
+                                   ("y", DATO_Y, beat.payload.present)):
+            mem = memory.Memory(shape=self.data_bits + 1, depth=depth, init=[])
             m.submodules[f"mem_{axis}"] = mem
             wport = mem.write_port()
             rport = mem.read_port()  # not transparent: a full FIFO's oldest entry
@@ -134,7 +144,7 @@ class FifoSlave(wiring.Component):
                 after.eq(Mux(clr, 0, count - pop)),
                 rport.addr.eq(rp),
                 wport.addr.eq(wp_base),
-                wport.data.eq(getattr(beat.payload, axis)),
+                wport.data.eq(Cat(getattr(beat.payload, axis), mark & streaming_next)),
             ]
             m.d.sync += rp.eq(Mux(clr, 0, rp + pop))
             fifos[axis] = dict(wport=wport, rport=rport, count=count, after=after, pop=pop)
@@ -152,7 +162,7 @@ class FifoSlave(wiring.Component):
         # Read path: registers are sampled in the read cycle; Dato_* come from
         # the RAM's registered output, so both are ready one cycle later.
         count_x, count_y = fifos["x"]["count"], fifos["y"]["count"]
-        control = Cat(go, (count_x != 0) & (count_y != 0), ~(go & flag), 0, full)
+        control = Cat(go, (count_x != 0) & (count_y != 0), ~(go & flag), 0, full, streaming)
         reg_data = Signal(DATA_WIDTH)
         from_x = Signal()
         from_y = Signal()

@@ -25,7 +25,7 @@ __all__ = [
     "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH", "FRAME_WIDTH", "FRAME_HEIGHT",
     "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
-    "CTRL_READABLE_MASK",
+    "CTRL_READABLE_MASK", "CTRL_STREAM", "DATO_X_FLAG", "DATO_Y_PRESENT",
     "UART_TXDATA", "UART_STATUS", "UART_RXDATA", "UART_SPAN", "UART_STATUS_TX_READY",
     "UART_STATUS_RX_VALID",
 ]
@@ -162,11 +162,16 @@ FIFO_REGISTERS = RegisterMap("fifo", span=0x18, registers=(
     Register("Dato_X", 0x00, "R",
              "pops the X FIFO: smoothed centroid x, unsigned 10.8 fixed point; an "
              "empty FIFO reads 0 and pops nothing",
-             (Field("data", 0, DATA_BITS, "R", "x << FRAC_BITS (bits above read 0)"),)),
+             (Field("data", 0, DATA_BITS, "R", "x << FRAC_BITS (bits above FLAG read 0)"),
+              Field("FLAG", DATA_BITS, 1, "R", "streaming mode: the frame's spotting flag "
+                                               "(0 in the thesis mode)"))),
     Register("Dato_Y", 0x04, "R", "pops the Y FIFO (same format)",
-             (Field("data", 0, DATA_BITS, "R", "y << FRAC_BITS"),)),
+             (Field("data", 0, DATA_BITS, "R", "y << FRAC_BITS"),
+              Field("PRESENT", DATA_BITS, 1, "R", "streaming mode: 1 = the frame saw a "
+                                                  "hand (centroid area > 0; 0 in the "
+                                                  "thesis mode)"))),
     Register("reserved", 0x08, "R", "reads 0, writes ignored"),
-    Register("Control", 0x0C, "RW", "capture control and status; bits [31:5] read 0", (
+    Register("Control", 0x0C, "RW", "capture control and status; bits [31:6] read 0", (
         Field("GO", 0, 1, "RW", "1 = capture runs: pairs are pushed and the gesture bit "
                                 "follows the spotting flag"),
         Field("FIFO_DATA", 1, 1, "RO", "1 = both FIFOs hold at least one entry"),
@@ -175,6 +180,10 @@ FIFO_REGISTERS = RegisterMap("fifo", span=0x18, registers=(
         Field("FIFO_CLR", 3, 1, "W1", "writing 1 empties both FIFOs and clears FIFO_FULL"),
         Field("FIFO_FULL", 4, 1, "RO", "sticky: a push found a FIFO full since the last "
                                        "FIFO_CLR (that pair was dropped)"),
+        Field("STREAM", 5, 1, "RW", "1 = streaming mode: while GO every frame's record is "
+                                    "pushed, with its FLAG and PRESENT bits, so that the "
+                                    "HPS finds gesture boundaries itself; 0 = the thesis: "
+                                    "only frames with the spotting flag set"),
     )),
     Register("Longitud_X", 0x10, "R", "entries in the X FIFO (0..FIFO_DEPTH)"),
     Register("Longitud_Y", 0x14, "R", "entries in the Y FIFO (0..FIFO_DEPTH)"),
@@ -206,8 +215,12 @@ CTRL_FIFO_DATA = FIFO_REGISTERS["Control"]["FIFO_DATA"].mask
 CTRL_NO_GESTURE = FIFO_REGISTERS["Control"]["NO_GESTURE"].mask
 CTRL_FIFO_CLR = FIFO_REGISTERS["Control"]["FIFO_CLR"].mask
 CTRL_FIFO_FULL = FIFO_REGISTERS["Control"]["FIFO_FULL"].mask
+CTRL_STREAM = FIFO_REGISTERS["Control"]["STREAM"].mask
 #: Bits of Control that can read 1 (FIFO_CLR always reads 0).
-CTRL_READABLE_MASK = CTRL_GO | CTRL_FIFO_DATA | CTRL_NO_GESTURE | CTRL_FIFO_FULL
+CTRL_READABLE_MASK = CTRL_GO | CTRL_FIFO_DATA | CTRL_NO_GESTURE | CTRL_FIFO_FULL | CTRL_STREAM
+#: The streaming mode's flag bits in Dato_X and Dato_Y.
+DATO_X_FLAG = FIFO_REGISTERS["Dato_X"]["FLAG"].mask
+DATO_Y_PRESENT = FIFO_REGISTERS["Dato_Y"]["PRESENT"].mask
 
 UART_TXDATA = UART_REGISTERS["TXDATA"].offset
 UART_STATUS = UART_REGISTERS["STATUS"].offset

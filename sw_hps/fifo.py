@@ -8,8 +8,8 @@ HPS-to-FPGA bridge) and this driver take the register map from there, and
 
 The register map is declared in :data:`soc.hps_interface.FIFO_REGISTERS` (its
 ``table()`` prints it): Dato_X and Dato_Y pop the two FIFOs (10.8 fixed point),
-Control holds GO, FIFO data, gesture, FIFO-CLR and FIFO-FULL, Longitud_X and
-Longitud_Y count the entries.
+Control holds GO, FIFO data, gesture, FIFO-CLR, FIFO-FULL and STREAM, Longitud_X
+and Longitud_Y count the entries.
 
 The gesture spotting runs whatever GO is; GO gates its effects. While GO is 1 the
 hardware pushes one (x, y) pair per video frame whose spotting flag is set, and the
@@ -17,8 +17,13 @@ gesture bit reads NOT(GO AND flag) (0 = gesture in progress, from the frame the 
 rises until the frame it falls; setting GO during a gesture shows it at once). If
 either FIFO is full the pair is dropped from both (they stay aligned) and FIFO-FULL
 is set. While GO is 0 nothing is pushed and the gesture bit reads 1. The FIFO
-depth of the hardware is :data:`FIFO_DEPTH` (512 x 18 bits fits one M10K block per
+depth of the hardware is :data:`FIFO_DEPTH` (512 x 19 bits fits one M10K block per
 FIFO; a gesture of the thesis lasts 40-100 frames).
+
+Streaming mode (STREAM = 1, issue 28): while GO is 1 every frame is pushed, with
+the spotting flag in Dato_X's FLAG bit and whether the frame saw a hand in
+Dato_Y's PRESENT bit (:meth:`FifoPeripheral.pop_record`), so that the
+application finds gesture boundaries itself; both bits read 0 in the thesis mode.
 
 The pushed values are smoothed centroids of the board's :data:`FRAME_WIDTH` x
 :data:`FRAME_HEIGHT` frames: 0 <= x < FRAME_WIDTH, 0 <= y < FRAME_HEIGHT in pixels
@@ -30,7 +35,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from soc.hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL,
-                               CTRL_GO, CTRL_NO_GESTURE, CTRL_READABLE_MASK, DATA_BITS,
+                               CTRL_GO, CTRL_NO_GESTURE, CTRL_READABLE_MASK, CTRL_STREAM,
+                               DATO_X_FLAG, DATO_Y_PRESENT, DATA_BITS,
                                DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT,
                                FRAME_WIDTH, LIGHTWEIGHT_BRIDGE_BASE, LONGITUD_X, LONGITUD_Y,
                                REGISTER_SPAN, RESERVED)
@@ -38,7 +44,7 @@ from soc.hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO
 __all__ = [
     "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
-    "CTRL_READABLE_MASK", "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH",
+    "CTRL_READABLE_MASK", "CTRL_STREAM", "DATO_X_FLAG", "DATO_Y_PRESENT", "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH",
     "FRAME_WIDTH", "FRAME_HEIGHT", "LIGHTWEIGHT_BRIDGE_BASE", "FifoStatus", "FifoPeripheral",
     "to_fixed", "from_fixed",
 ]
@@ -66,6 +72,8 @@ class FifoStatus:
         GO, FIFO data, gesture (1 = no gesture, thesis polarity), FIFO-FULL.
     length_x, length_y : int
         Longitud_X, Longitud_Y.
+    streaming : bool
+        STREAM: every frame's record is pushed.
     """
     control: int
     go: bool
@@ -74,6 +82,7 @@ class FifoStatus:
     full: bool
     length_x: int
     length_y: int
+    streaming: bool = False
 
     @property
     def gesture_active(self) -> bool:
@@ -92,7 +101,8 @@ class FifoStatus:
                    data=bool(control & CTRL_FIFO_DATA),
                    no_gesture=bool(control & CTRL_NO_GESTURE),
                    full=bool(control & CTRL_FIFO_FULL),
-                   length_x=int(length_x) & 0xFFFFFFFF, length_y=int(length_y) & 0xFFFFFFFF)
+                   length_x=int(length_x) & 0xFFFFFFFF, length_y=int(length_y) & 0xFFFFFFFF,
+                   streaming=bool(control & CTRL_STREAM))
 
 
 class FifoPeripheral:
@@ -123,18 +133,20 @@ class FifoPeripheral:
         """Raw Control word."""
         return self._read(CONTROL)
 
-    def start(self) -> None:
-        """Set GO: capture runs."""
-        self._write(CONTROL, CTRL_GO)
+    def start(self, streaming: bool = False) -> None:
+        """Set GO: capture runs (``streaming``: every frame's record is pushed,
+        Control.STREAM)."""
+        self._write(CONTROL, CTRL_GO | (CTRL_STREAM if streaming else 0))
 
     def stop(self) -> None:
         """Clear GO: capture stops."""
         self._write(CONTROL, 0)
 
-    def clear(self, keep_running: bool = True) -> None:
+    def clear(self, keep_running: bool = True, streaming: bool = False) -> None:
         """Empty both FIFOs and clear FIFO-FULL (FIFO-CLR), leaving GO set if
-        ``keep_running`` (one write: GO and FIFO-CLR together)."""
-        self._write(CONTROL, CTRL_FIFO_CLR | (CTRL_GO if keep_running else 0))
+        ``keep_running`` (one write: GO, STREAM and FIFO-CLR together)."""
+        self._write(CONTROL, CTRL_FIFO_CLR | (CTRL_GO if keep_running else 0)
+                    | (CTRL_STREAM if streaming else 0))
 
     def status(self) -> FifoStatus:
         """Read Control, Longitud_X and Longitud_Y (three bus reads)."""
@@ -159,3 +171,9 @@ class FifoPeripheral:
         """Pop one pair in pixels (10.8 decoded)."""
         x, y = self.pop_raw()
         return from_fixed(x), from_fixed(y)
+
+    def pop_record(self) -> tuple[int, int, bool, bool]:
+        """Pop one streaming-mode record: raw 10.8 x and y, the frame's spotting
+        flag (Dato_X.FLAG) and whether it saw a hand (Dato_Y.PRESENT)."""
+        x, y = self.pop_words()
+        return x & DATA_MASK, y & DATA_MASK, bool(x & DATO_X_FLAG), bool(y & DATO_Y_PRESENT)

@@ -37,7 +37,7 @@ import numpy as np
 from .app import GestureApp, GestureResult, State
 from .bus import SimBus
 from .fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
-                   CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
+                   CTRL_NO_GESTURE, CTRL_STREAM, DATO_X_FLAG, DATO_Y_PRESENT, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
                    LONGITUD_Y, REGISTER_SPAN, FifoPeripheral, to_fixed)
 from .hmm import GestureModels
 from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID,
@@ -46,7 +46,7 @@ from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_
 from .robot import NullLink
 
 __all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv", "SimulatedClock",
-           "SimulationRun", "simulate_trajectory", "run_on_trajectory"]
+           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "streaming_words"]
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +75,8 @@ class SimulatedFifoPeripheral:
     ----------
     frames : int
         Video frames seen so far.
+    streaming : bool
+        Control.STREAM: every frame is pushed.
     dropped : int
         Pairs dropped because a FIFO was full.
     clears : int
@@ -94,37 +96,47 @@ class SimulatedFifoPeripheral:
         self.depth = depth
         self.reads_per_frame = reads_per_frame
         self.go = False
+        self.streaming = False
         self.flag = False
         self.full = False
         self.fifo_x: deque[int] = deque()
         self.fifo_y: deque[int] = deque()
-        self._pending: deque[tuple[int, int, bool]] = deque()
+        self._pending: deque[tuple[int, int, bool, bool]] = deque()
         self._control_reads = 0
+        self._last = None           # the last frame's (x, y, present)
         self.frames = 0
         self.dropped = 0
         self.clears = 0
 
     # ---- the video side ---------------------------------------------------------
-    def push_frame(self, x_fixed: int, y_fixed: int, flag) -> None:
-        """One video frame: centroid (10.8 fixed point) and spotting flag.
+    def push_frame(self, x_fixed: int, y_fixed: int, flag, present=True) -> None:
+        """One video frame: centroid (10.8 fixed point), spotting flag and
+        whether the frame saw a hand.
 
-        With GO set and ``flag`` true the pair is pushed (or dropped, setting
-        FIFO-FULL, if either FIFO is full); the gesture bit follows ``flag``.
+        With GO set and ``flag`` true the pair is pushed (thesis mode); in
+        streaming mode (STREAM set) every frame is pushed, with ``flag`` in
+        Dato_X's FLAG bit and ``present`` in Dato_Y's PRESENT bit. A push into
+        a full FIFO is dropped, setting FIFO-FULL; the gesture bit follows
+        ``flag``.
         """
         x_fixed = _check_raw("x_fixed", x_fixed)
         y_fixed = _check_raw("y_fixed", y_fixed)
+        self._last = (x_fixed, y_fixed, bool(present))
         self.frames += 1
         self.flag = bool(flag)
-        if not (self.go and self.flag):
+        if not (self.go and (self.flag or self.streaming)):
             return
         if len(self.fifo_x) >= self.depth or len(self.fifo_y) >= self.depth:
             self.full = True
             self.dropped += 1
             return
+        if self.streaming:
+            x_fixed |= DATO_X_FLAG if self.flag else 0
+            y_fixed |= DATO_Y_PRESENT if present else 0
         self.fifo_x.append(x_fixed)
         self.fifo_y.append(y_fixed)
 
-    def queue_trajectory(self, x, y, flag, *, pixels: bool = False) -> None:
+    def queue_trajectory(self, x, y, flag, *, pixels: bool = False, present=None) -> None:
         """Append frames to be played by :meth:`step` (or by Control reads).
 
         Parameters
@@ -133,19 +145,23 @@ class SimulatedFifoPeripheral:
             Centroid per frame: 10.8 fixed-point integers, or pixels if ``pixels``.
         flag : (T,) array
             Spotting flag per frame (non-zero = gesture in progress).
+        present : (T,) array, optional
+            Whether each frame saw a hand (the centroid's area > 0; streaming
+            mode's PRESENT bit); every frame by default.
         """
         x = np.asarray(x).reshape(-1)
         y = np.asarray(y).reshape(-1)
         flag = np.asarray(flag).reshape(-1)
-        if not len(x) == len(y) == len(flag):
-            raise ValueError(f"x, y and flag must have the same length, got "
-                             f"{len(x)}, {len(y)}, {len(flag)}")
+        present = np.ones(len(x), bool) if present is None else np.asarray(present).reshape(-1)
+        if not len(x) == len(y) == len(flag) == len(present):
+            raise ValueError(f"x, y, flag and present must have the same length, got "
+                             f"{len(x)}, {len(y)}, {len(flag)}, {len(present)}")
         for n in range(len(x)):
             if pixels:
                 fx, fy = to_fixed(x[n]), to_fixed(y[n])
             else:
                 fx, fy = _check_raw("x", x[n]), _check_raw("y", y[n])
-            self._pending.append((fx, fy, bool(flag[n])))
+            self._pending.append((fx, fy, bool(flag[n]), bool(present[n])))
 
     @property
     def frames_pending(self) -> int:
@@ -154,12 +170,16 @@ class SimulatedFifoPeripheral:
 
     def step(self, frames: int = 1) -> int:
         """Play ``frames`` queued frames (idle frames, flag 0, once the queue is
-        empty, holding the last centroid). Returns how many queued frames were played."""
+        empty, holding the last centroid: in streaming mode they are pushed, as
+        the hardware pushes every frame of cameras that see a still hand).
+        Returns how many queued frames were played."""
         played = 0
         for _ in range(frames):
             if self._pending:
                 self.push_frame(*self._pending.popleft())
                 played += 1
+            elif self.streaming and self._last is not None:
+                self.push_frame(*self._last[:2], False, self._last[2])
             else:
                 self.frames += 1
                 self.flag = False
@@ -177,6 +197,8 @@ class SimulatedFifoPeripheral:
             value |= CTRL_NO_GESTURE
         if self.full:
             value |= CTRL_FIFO_FULL
+        if self.streaming:
+            value |= CTRL_STREAM
         return value
 
     def read32(self, offset: int) -> int:
@@ -201,6 +223,7 @@ class SimulatedFifoPeripheral:
         if offset != CONTROL:
             return  # Dato_*, Longitud_* and reserved ignore writes
         self.go = bool(value & CTRL_GO)
+        self.streaming = bool(value & CTRL_STREAM)
         if value & CTRL_FIFO_CLR:
             self.fifo_x.clear()
             self.fifo_y.clear()
@@ -449,3 +472,18 @@ def run_on_trajectory(models: GestureModels, x, y, flag, **options) -> Simulatio
     """:func:`simulate_trajectory` and run it; the returned object holds
     ``results``, ``recognised`` (names) and ``telegrams`` (bytes sent)."""
     return simulate_trajectory(models, x, y, flag, **options).run()
+
+
+def streaming_words(trajectory, depth: int = FIFO_DEPTH) -> list[tuple[int, int]]:
+    """The (Dato_X, Dato_Y) words the FIFO slave holds in streaming mode
+    (Control = GO | STREAM before the first frame) after ``trajectory``'s
+    frames (a :class:`sim.model.pipeline.Trajectory`), popped in order: every
+    frame's smoothed position with its FLAG and PRESENT bits, the golden model
+    of the hardware's streaming mode."""
+    peripheral = SimulatedFifoPeripheral(depth=depth)
+    peripheral.write32(CONTROL, CTRL_GO | CTRL_STREAM)
+    peripheral.queue_trajectory(trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
+                                trajectory.flag, present=np.asarray(trajectory.area) > 0)
+    peripheral.step(peripheral.frames_pending)
+    return [(peripheral.read32(DATO_X), peripheral.read32(DATO_Y))
+            for _ in range(min(len(peripheral.fifo_x), len(peripheral.fifo_y)))]

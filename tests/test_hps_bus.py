@@ -13,6 +13,7 @@ import sw_hps
 from sw_hps import bus as bus_module
 from sw_hps.bus import Bus, BusError, DevMemBus, SimBus, UioBus, check_offset
 from sw_hps.fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
+                         CTRL_STREAM,
                          CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
                          LONGITUD_Y, REGISTER_SPAN, RESERVED, FifoPeripheral, FifoStatus,
                          from_fixed, to_fixed)
@@ -208,7 +209,7 @@ def test_overflow_sets_sticky_full_and_drops_the_pair():
 def test_writes_to_read_only_bits_and_registers_are_ignored():
     peripheral, fifo = make_fifo()
     peripheral.write32(CONTROL, 0xFFFFFFFF & ~CTRL_FIFO_CLR)
-    assert fifo.control() == CTRL_GO | CTRL_NO_GESTURE
+    assert fifo.control() == CTRL_GO | CTRL_NO_GESTURE | CTRL_STREAM
     for offset in (DATO_X, DATO_Y, RESERVED, LONGITUD_X, LONGITUD_Y):
         peripheral.write32(offset, 123)
     assert fifo.status().length_x == 0

@@ -40,6 +40,7 @@ def test_core_ports_are_the_documented_ones():
     (dict(sync_freq=0), "sync_freq"), (dict(config_freq=1e12), "config_freq"),
     (dict(vga_mode="vga"), "vga_mode"), (dict(width=7), "width"),
     (dict(vga_scale=3), r"vga_scale must be in \[1, 2\]"), (dict(vga_scale=0), "vga_scale"),
+    (dict(width=2048), r"width and height must be at most 1024 \(the FIFO words"),
 ])
 def test_core_rejects_bad_parameters(kwargs, word):
     args = dict(width=W, height=H, params=SMALL)

@@ -36,7 +36,7 @@ def port_names(text: str, top: str) -> set[str]:
 def test_emitted_ports():
     text = emit(8)
     assert port_names(text, TOP) == PORTS
-    assert re.search(r"input \[36:0\] i_stream__payload;", text)
+    assert re.search(r"input \[37:0\] i_stream__payload;", text)
     assert re.search(r"input \[2:0\] bus__address;", text)
 
 
@@ -96,7 +96,7 @@ def test_full_depth_amaranth_sim():
 
 @pytest.mark.parametrize("kwargs, name", [
     (dict(data_bits=0), "data_bits"),
-    (dict(data_bits=33), "data_bits"),
+    (dict(data_bits=32), "data_bits"),
     (dict(data_bits=18.0), "data_bits"),
     (dict(data_bits=True), "data_bits"),
     (dict(depth=1), "depth"),
@@ -110,6 +110,6 @@ def test_bad_parameters(kwargs, name):
 
 
 def test_parameter_limits_accepted():
-    for data_bits, depth in ((1, 2), (32, 65536), (18, FIFO_DEPTH)):
+    for data_bits, depth in ((1, 2), (31, 65536), (18, FIFO_DEPTH)):
         dut = FifoSlave(data_bits=data_bits, depth=depth)
         assert (dut.data_bits, dut.depth) == (data_bits, depth)

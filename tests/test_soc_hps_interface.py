@@ -13,11 +13,14 @@ def test_fifo_map_is_thesis_table_12_and_13():
         ("Dato_X", 0x00), ("Dato_Y", 0x04), ("reserved", 0x08), ("Control", 0x0C),
         ("Longitud_X", 0x10), ("Longitud_Y", 0x14)]
     control = FIFO_REGISTERS["Control"]
+    # the thesis' five bits, then ours: the streaming mode (issue 28)
     assert [(f.name, f.bit) for f in control.fields] == [
-        ("GO", 0), ("FIFO_DATA", 1), ("NO_GESTURE", 2), ("FIFO_CLR", 3), ("FIFO_FULL", 4)]
-    assert (hi.CTRL_GO, hi.CTRL_FIFO_CLR, hi.CTRL_FIFO_FULL) == (1, 8, 16)
-    assert hi.CTRL_READABLE_MASK == 0b10111               # FIFO_CLR reads 0
+        ("GO", 0), ("FIFO_DATA", 1), ("NO_GESTURE", 2), ("FIFO_CLR", 3), ("FIFO_FULL", 4),
+        ("STREAM", 5)]
+    assert (hi.CTRL_GO, hi.CTRL_FIFO_CLR, hi.CTRL_FIFO_FULL, hi.CTRL_STREAM) == (1, 8, 16, 32)
+    assert hi.CTRL_READABLE_MASK == 0b110111              # FIFO_CLR reads 0
     assert FIFO_REGISTERS["Dato_X"]["data"].mask == hi.DATA_MASK == (1 << 18) - 1
+    assert hi.DATO_X_FLAG == hi.DATO_Y_PRESENT == 1 << 18
     assert FIFO_REGISTERS.address_width == 3 and UART_REGISTERS.address_width == 2
 
 

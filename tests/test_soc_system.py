@@ -134,3 +134,30 @@ def test_uart_link_bytes_reach_the_tx_pin():
         system.advance(len(data) * 10 / 115200 + 200e-6)
         edges = system.uart_edges()
     assert decode_uart(edges) == data
+
+
+def test_streaming_mode_pushes_every_frame():
+    """Control = GO | STREAM (issue 28): the Verilated core pushes every frame's
+    record, with the spotting flag and the hand-present bit above the data,
+    word for word the golden model's (sw_hps.simulated.streaming_words); the
+    frames include flagged and unflagged ones, with and without a hand."""
+    from hdl.gesture_pipeline import pipeline_timing
+    from sw_hps.fifo import CTRL_GO, CTRL_STREAM, FifoPeripheral
+    from sw_hps.simulated import streaming_words
+    left, right = small_frames(12, W, H)
+    trajectory, _ = run_clip(left, right, SMALL)
+    expected = streaming_words(trajectory)
+    flags = {(x >> 18 & 1, y >> 18 & 1) for x, y in expected}
+    assert len(expected) == 12 and {(0, 1), (1, 1)} <= flags, flags
+    timing = pipeline_timing(W, H, SMALL)
+    with VerilatorSystem(left, right, SMALL) as system:
+        bus = SystemBus(system)
+        fifo = FifoPeripheral(bus)
+        fifo.start(streaming=True)
+        assert fifo.status().streaming and fifo.status().go
+        while not system.cameras_done:
+            system.advance(20e-6)
+        system.advance((timing.record_cycles + 8 * W) / 100e6)
+        while fifo.status().pairs_available:
+            fifo.pop_words()
+    assert bus.popped == expected

@@ -21,7 +21,8 @@ from cocotbext.avalon import AvalonMMBus, AvalonMMMasterBFM
 
 from soc.avalon import READ_LATENCY
 from sw_hps.fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
-                         CTRL_NO_GESTURE, DATO_X, DATO_Y, LONGITUD_X, LONGITUD_Y, RESERVED)
+                         CTRL_NO_GESTURE, CTRL_STREAM, DATO_X, DATO_Y, LONGITUD_X, LONGITUD_Y,
+                         RESERVED)
 from sw_hps.simulated import SimulatedFifoPeripheral
 
 DEPTH = int(os.environ.get("FIFO_DEPTH", "8"))
@@ -70,13 +71,13 @@ class Harness:
     async def write(self, offset: int, value: int) -> None:
         await self.master.write(offset // 4, value & 0xFFFFFFFF)
 
-    async def push(self, x: int, y: int, flag: bool) -> None:
+    async def push(self, x: int, y: int, flag: bool, present: bool = True) -> None:
         """One i_stream beat (one video frame), taken at the second edge: the
         same edge at which a bus access started together with it is taken."""
         dut = self.dut
         await RisingEdge(dut.clk)
         dut.i_stream__payload.value = (x & DATA_MASK) | ((y & DATA_MASK) << DATA_BITS) \
-            | (int(bool(flag)) << (2 * DATA_BITS))
+            | (int(bool(flag)) << (2 * DATA_BITS)) | (int(bool(present)) << (2 * DATA_BITS + 1))
         dut.i_stream__valid.value = 1
         await RisingEdge(dut.clk)
         dut.i_stream__valid.value = 0
@@ -114,15 +115,16 @@ async def register_map(dut):
             assert await h.read(offset) == 0, f"offset {offset:#x} after reset"
     assert await h.outputs() == (0, 0, 0)
 
-    # GO is R/W; FIFO-CLR reads 0; RO bits and bits 31:5 ignore writes.
+    # GO and STREAM are R/W; FIFO-CLR reads 0; RO bits and bits 31:6 ignore writes.
     await h.write(CONTROL, CTRL_GO)
     assert await h.read(CONTROL) == CTRL_GO | CTRL_NO_GESTURE
     assert await h.outputs() == (1, 0, 0)
     await h.write(CONTROL, 0xFFFFFFFF)
-    assert await h.read(CONTROL) == CTRL_GO | CTRL_NO_GESTURE
+    assert await h.read(CONTROL) == CTRL_GO | CTRL_NO_GESTURE | CTRL_STREAM
     await h.write(CONTROL, 0xFFFFFFFF & ~CTRL_GO)
-    assert await h.read(CONTROL) == CTRL_NO_GESTURE
+    assert await h.read(CONTROL) == CTRL_NO_GESTURE | CTRL_STREAM
     assert await h.outputs() == (0, 0, 0)
+    await h.write(CONTROL, 0)
 
     # GO 0: a flagged frame is not pushed and the gesture bit stays 1.
     await h.push(0x100, 0x200, True)
@@ -201,6 +203,21 @@ async def register_map(dut):
     await h.push(5, 6, True)
     assert (await h.read(DATO_X), await h.read(DATO_Y)) == (5, 6)
 
+    # Streaming mode: every frame pushed, FLAG above Dato_X's data, PRESENT
+    # above Dato_Y's; the thesis mode stores neither bit.
+    await h.write(CONTROL, CTRL_GO | CTRL_STREAM)
+    for frame in ((7, 8, False, False), (9, 10, False, True), (11, 12, True, True),
+                  (13, 14, True, False)):
+        await h.push(*frame)
+    await h.write(CONTROL, CTRL_GO)
+    await h.push(15, 16, True, True)
+    await h.push(17, 18, False, True)
+    words = [(await h.read(DATO_X), await h.read(DATO_Y)) for _ in range(5)]
+    flag, present = 1 << DATA_BITS, 1 << DATA_BITS
+    assert words == [(7, 8), (9, 10 | present), (11 | flag, 12 | present), (13 | flag, 14),
+                     (15, 16)]
+    assert await h.read(LONGITUD_X) == 0
+
 
 @cocotb.test(timeout_time=1, timeout_unit="ms")
 async def same_cycle(dut):
@@ -266,7 +283,9 @@ async def random_against_model(dut):
 
     def random_frame():
         # Flag mostly set while GO is 1 so the FIFOs fill up and overflow.
-        return (rng.getrandbits(DATA_BITS), rng.getrandbits(DATA_BITS), rng.random() < 0.7)
+        # (random Control words set STREAM half the time: every frame pushed)
+        return (rng.getrandbits(DATA_BITS), rng.getrandbits(DATA_BITS), rng.random() < 0.7,
+                rng.random() < 0.8)
 
     def random_control():
         value = rng.getrandbits(32)
