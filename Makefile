@@ -44,7 +44,8 @@ timing: $(STAMP)
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'
-# discrete recogniser (§9.4), kept for comparison.
+# discrete recogniser (§9.4), kept for comparison; continuous7.json is for
+# --spotting continuous (gestures one after another).
 MODEL  ?= sw_hps/models/gestures7.json
 BUNDLE := build/stereogest-hps.tar.gz
 
@@ -55,6 +56,8 @@ model: $(STAMP)
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/thesis7.json --seed 0 \
 		--emission discrete \
 		--states 5 --no-reject
+	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
+		--emission discrete --continuous
 
 hps-bundle: $(STAMP)
 	$(BIN)/python -m sw_hps.bundle --model $(MODEL) -o $(BUNDLE)

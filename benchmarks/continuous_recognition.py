@@ -1,14 +1,21 @@
-"""Continuous recognition on real people (issue 28): the $1 unistroke logs'
-gestures of each subject joined into streams (transit movements between them,
-pauses of 0-15 steps), spotted by :class:`sw_hps.continuous.ContinuousRecogniser`
+"""Continuous recognition on people the models never saw (issue 28): each
+subject's gestures joined into streams (transit movements between them,
+pauses of 0-15 frames), spotted by :class:`sw_hps.continuous.ContinuousRecogniser`
 with models trained on the other subjects, leave one subject out
 (:func:`recognition.continuous.leave_one_subject_out`; the threshold bias
 calibrated on the training subjects only). Also the recogniser's cost per
 frame on this machine (CPU microseconds).
 
-Run: ``python benchmarks/continuous_recognition.py [--subjects 2,3,4]
-[--states 12] [--step 6] [--json FILE]``. Prints the figures; the whole set
-takes tens of CPU minutes.
+``--data dollar`` (default): the $1 unistroke logs (real people, pen front
+end, 12 states, 6 px). ``--data corpus``: the synthetic camera corpus
+(:func:`recognition.corpus.synthetic_corpus`, 6 people, 40 gestures per class,
+seed 23: people not used to choose the board's defaults, which were chosen
+on seed 11), through the FPGA's centroid smoothing, with the board's
+defaults (``stereogest train --continuous``: 8 states, 20 px).
+
+Run: ``python benchmarks/continuous_recognition.py [--data dollar|corpus]
+[--subjects 2,3,4] [--states N] [--step PX] [--json FILE]``. Prints the
+figures; the $1 set takes tens of CPU minutes, the corpus a few.
 """
 from __future__ import annotations
 
@@ -19,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from recognition.continuous import leave_one_subject_out, spot_stream
+from recognition.continuous import (distance_sequences, leave_one_subject_out, spot_stream,
+                                    stream_pixels)
 from recognition.datasets import load_trajectories
 from recognition.hmm_train import train_models
 from recognition.streams import subject_streams
@@ -30,21 +38,19 @@ ROOT = Path(__file__).resolve().parents[1]
 DOLLAR = ROOT / "data" / "gestures" / "dollar1_unistroke" / "dollar1_unistroke.npz"
 
 
-def cost_per_frame(data, states: int, step: int) -> dict:
+def cost_per_frame(data, states: int, step: int, front_end: str) -> dict:
     """CPU microseconds per frame and per symbol of the recogniser (its
     models trained on every subject: the cost does not depend on the fit)."""
-    sequences = [DistanceSymbols(step).symbols(np.rint(t).astype(np.int64))
-                 for t in data.trajectories()]
-    models = train_models(sequences, data.label, data.class_names, states,
-                          emission_floor=1e-3)
+    models = train_models(distance_sequences(data, step, front_end), data.label,
+                          data.class_names, states, emission_floor=1e-3)
     rec = ContinuousRecogniser(models)
     streams = subject_streams(data, 8, 0)[:20]
     frames = sum(len(s) for s in streams)
-    symbols = sum(len(DistanceSymbols(step).symbols(np.rint(s.points).astype(np.int64)))
-                  for s in streams)
+    pixels = [stream_pixels(s.points, front_end) for s in streams]
+    symbols = sum(len(DistanceSymbols(step).symbols(p)) for p in pixels)
     start = time.process_time()
     for s in streams:
-        spot_stream(rec, s.points, step)
+        spot_stream(rec, s.points, step, front_end)
     cpu = time.process_time() - start
     return {"frames": frames, "symbols": symbols, "cpu_s": round(cpu, 3),
             "us_per_frame": round(1e6 * cpu / frames, 1),
@@ -54,18 +60,32 @@ def cost_per_frame(data, states: int, step: int) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", choices=("dollar", "corpus"), default="dollar",
+                    help="$1 logs (real people) or the synthetic camera corpus")
     ap.add_argument("--subjects", default=None,
-                    help="comma-separated subjects to use (default: all seven)")
-    ap.add_argument("--states", type=int, default=12, help="states per class model")
-    ap.add_argument("--step", type=int, default=6, help="pixels of travel per symbol")
-    ap.add_argument("--json", default=str(ROOT / "build" / "continuous_recognition.json"))
+                    help="comma-separated subjects to use (default: all)")
+    ap.add_argument("--states", type=int, default=None,
+                    help="states per class model (default 12 $1, 8 corpus)")
+    ap.add_argument("--step", type=int, default=None,
+                    help="pixels of travel per symbol (default 6 $1, 20 corpus)")
+    ap.add_argument("--json", default=None,
+                    help="report (default build/continuous_recognition_<data>.json)")
     args = ap.parse_args(argv)
     from recognition.hmm_train import MAX_STATES
-    if not 1 <= args.states <= MAX_STATES:
-        ap.error(f"--states must be in 1..{MAX_STATES}, got {args.states}")
-    if not 1 <= args.step <= 1000:
-        ap.error(f"--step must be in 1..1000 pixels, got {args.step}")
-    data = load_trajectories(DOLLAR)
+    corpus = args.data == "corpus"
+    states = args.states if args.states is not None else (8 if corpus else 12)
+    step = args.step if args.step is not None else (20 if corpus else 6)
+    front_end = "camera" if corpus else "pen"
+    if not 1 <= states <= MAX_STATES:
+        ap.error(f"--states must be in 1..{MAX_STATES}, got {states}")
+    if not 1 <= step <= 1000:
+        ap.error(f"--step must be in 1..1000 pixels, got {step}")
+    args.states, args.step = states, step
+    if corpus:
+        from recognition.corpus import synthetic_corpus
+        data = synthetic_corpus(per_class=40, people=6, seed=23)
+    else:
+        data = load_trajectories(DOLLAR)
     if args.subjects:
         try:
             chosen = [int(s) for s in args.subjects.split(",")]
@@ -77,13 +97,16 @@ def main(argv=None) -> int:
                      f"got {args.subjects!r}")
         data = data.subset(np.flatnonzero(np.isin(data.subject, chosen)))
     start = time.process_time()
-    report = leave_one_subject_out(data, states=args.states, step=args.step)
+    report = leave_one_subject_out(data, states=args.states, step=args.step,
+                                   front_end=front_end)
     report["cpu_s"] = round(time.process_time() - start, 1)
-    report["cost"] = cost_per_frame(data, args.states, args.step)
-    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(json.dumps(report, indent=1) + "\n")
+    report["cost"] = cost_per_frame(data, args.states, args.step, front_end)
+    out = Path(args.json or ROOT / "build" / f"continuous_recognition_{args.data}.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(report, indent=1) + "\n")
     o = report["overall"]
-    print(f"$1 streams, leave one subject out ({len(report['per_subject'])} subjects, "
+    what = "synthetic camera corpus (seed 23)" if corpus else "$1"
+    print(f"{what} streams, leave one subject out ({len(report['per_subject'])} subjects, "
           f"{o['gestures']} gestures, {args.states} states, step {args.step} px):")
     print(f"  F1 {100 * o['f1']:.2f} %  precision {100 * o['precision']:.2f} %  "
           f"recall {100 * o['recall']:.2f} %")

@@ -26,19 +26,49 @@ from sw_hps.continuous import SPOTTING_DEFAULTS, ContinuousRecogniser, Detection
 from sw_hps.orientation import DistanceSymbols
 
 __all__ = ["spot_stream", "match_detections", "leave_one_subject_out", "stream_summary",
-           "calibrate_bias", "BIAS_GRID"]
+           "calibrate_bias", "train_continuous", "stream_pixels", "distance_sequences",
+           "BIAS_GRID", "FRONT_ENDS"]
 
 #: Threshold biases :func:`calibrate_bias` tries (log-likelihood per symbol).
 BIAS_GRID = (-2.0, -1.5, -1.25, -1.0, -0.75, -0.5, -0.25, 0.0)
 
 
-def spot_stream(recogniser: ContinuousRecogniser, points, step: int) -> list[Detection]:
+#: How positions become the integers the symboliser counts in: ``pen``
+#: rounds them; ``camera`` runs them through the FPGA's centroid smoothing
+#: (the moving average of :func:`sim.model.pipeline.track`) and keeps the
+#: whole pixels of its 10.8 output, what the board reads from the FIFO.
+FRONT_ENDS = ("pen", "camera")
+
+
+def stream_pixels(points, front_end: str = "pen") -> np.ndarray:
+    """(T, 2) integer positions of a per-frame stream of pixel positions as
+    the symboliser gets them (:data:`FRONT_ENDS`)."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if front_end == "pen":
+        return np.rint(points).astype(np.int64)
+    if front_end == "camera":
+        from sim.model.pipeline import PipelineParams, track
+        params = PipelineParams()
+        smoothed = track(np.floor(np.maximum(points, 0)).astype(np.int64),
+                         np.ones(len(points), np.int64), params).smoothed
+        return smoothed >> params.frac_bits
+    raise ValueError(f"front_end must be one of {', '.join(FRONT_ENDS)}, got {front_end!r}")
+
+
+def distance_sequences(data: TrajectorySet, step: int, front_end: str = "pen") -> list:
+    """The symbols of each trajectory of ``data`` at ``step`` pixels of travel."""
+    symbolise = DistanceSymbols(step)
+    return [symbolise.symbols(stream_pixels(t, front_end)) for t in data.trajectories()]
+
+
+def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
+                front_end: str = "pen") -> list[Detection]:
     """The gestures ``recogniser`` names in one stream of positions (one per
-    frame, in pixels, rounded to the integers ``step`` counts in)."""
+    frame, in pixels, made integers by ``front_end``, :data:`FRONT_ENDS`)."""
     recogniser.reset()
     symbols = DistanceSymbols(step)
     named = []
-    points = np.rint(np.asarray(points, dtype=np.float64)).astype(np.int64)
+    points = stream_pixels(points, front_end)
     for frame, point in enumerate(points):
         named += recogniser.step(frame, symbols.push(point))
     named += recogniser.flush(len(points) - 1)
@@ -86,12 +116,13 @@ def stream_summary(true_count: int, detections: int, correct: int, latencies,
             "false_commands_per_10_min": (10.0 * false_commands / minutes) if minutes else None}
 
 
-def _spot_counts(recogniser, streams, step) -> tuple[int, int, int, list, int, int]:
+def _spot_counts(recogniser, streams, step,
+                 front_end: str = "pen") -> tuple[int, int, int, list, int, int]:
     """(true, detections, correct, latencies, between-gesture frames, false)."""
     true = det = correct = between = false = 0
     latencies = []
     for stream in streams:
-        found = spot_stream(recogniser, stream.points, step)
+        found = spot_stream(recogniser, stream.points, step, front_end)
         matched, lat = match_detections(found, stream.spans, stream.labels)
         true += len(stream.spans)
         det += len(found)
@@ -104,7 +135,8 @@ def _spot_counts(recogniser, streams, step) -> tuple[int, int, int, list, int, i
 
 def calibrate_bias(data: TrajectorySet, sequences, *, states: int, step: int,
                    emission_floor: float, per_stream: int, pause, seed: int,
-                   spotting: dict, grid=BIAS_GRID) -> tuple[float, dict]:
+                   spotting: dict, grid=BIAS_GRID,
+                   front_end: str = "pen") -> tuple[float, dict]:
     """The threshold bias of ``grid`` with the best F1 on ``data``'s subjects
     (training subjects only): they are dealt into two halves, each half's
     streams spotted by models trained on the other; ties go to the larger
@@ -122,7 +154,7 @@ def calibrate_bias(data: TrajectorySet, sequences, *, states: int, step: int,
         streams = subject_streams(data.subset(test), per_stream, seed, pause=pause)
         for bias in grid:
             rec = ContinuousRecogniser(models, **dict(spotting, threshold_bias=bias))
-            true, det, correct, *_ = _spot_counts(rec, streams, step)
+            true, det, correct, *_ = _spot_counts(rec, streams, step, front_end)
             counts[bias] += (true, det, correct)
     f1 = {}
     for bias, (true, det, correct) in counts.items():
@@ -139,16 +171,15 @@ def _between_frames(stream: GestureStream) -> int:
 def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 6,
                           emission_floor: float = 1e-3, per_stream: int = 8,
                           pause=(0, 15), seed: int = 0, spotting: dict | None = None,
-                          fps: float = 30.0) -> dict:
+                          fps: float = 30.0, front_end: str = "pen") -> dict:
     """Continuous recognition of every subject of ``data`` by models trained on
     the others (module docstring); JSON-ready figures, overall and per subject."""
     if data.subject is None:
         raise ValueError("the dataset has no subject (or writer) key")
     names = data.class_names
-    options = dict(SPOTTING_DEFAULTS, **(spotting or {}))
+    options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
     calibrate = "threshold_bias" not in (spotting or {})
-    symbolise = DistanceSymbols(step)
-    sequences = [symbolise.symbols(np.rint(t).astype(np.int64)) for t in data.trajectories()]
+    sequences = distance_sequences(data, step, front_end)
     per_subject = {}
     totals = np.zeros(5, np.int64)           # true, detections, correct, between, false
     all_latencies = []
@@ -160,13 +191,13 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             fold["threshold_bias"], calibration = calibrate_bias(
                 data.subset(train), [sequences[i] for i in train], states=states, step=step,
                 emission_floor=emission_floor, per_stream=per_stream, pause=pause, seed=seed,
-                spotting=options)
+                spotting=options, front_end=front_end)
         models = train_models([sequences[i] for i in train], data.label[train], names, states,
                               emission_floor=emission_floor)
         held = data.subset(np.flatnonzero(data.subject == subject))
         streams = subject_streams(held, per_stream, seed, pause=pause)
         true, det, correct, latencies, between, false = _spot_counts(
-            ContinuousRecogniser(models, **fold), streams, step)
+            ContinuousRecogniser(models, **fold), streams, step, front_end)
         per_subject[int(subject)] = dict(
             stream_summary(true, det, correct, latencies, between, false, fps),
             threshold_bias=fold["threshold_bias"], calibration_f1=calibration)
@@ -174,7 +205,37 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
         all_latencies += latencies
     true, det, correct, between, false = (int(v) for v in totals)
     overall = stream_summary(true, det, correct, all_latencies, between, false, fps)
-    return {"protocol": "leave one subject out", "states": states, "step": step,
+    return {"protocol": "leave one subject out", "front_end": front_end,
+            "states": states, "step": step,
             "emission_floor": emission_floor, "per_stream": per_stream,
             "pause": list(pause), "seed": seed, "spotting": options,
             "overall": overall, "per_subject": per_subject}
+
+
+def train_continuous(data: TrajectorySet, *, states: int = 8,
+                     step: int = SPOTTING_DEFAULTS["step"],
+                     emission_floor: float = 1e-3, per_stream: int = 8, pause=(0, 15),
+                     seed: int = 0, spotting: dict | None = None, front_end: str = "camera",
+                     meta: dict | None = None):
+    """Models for the board's continuous spotting: discrete class models
+    trained on every trajectory's distance symbols, with a ``spotting`` entry
+    (``step`` and the threshold bias :func:`calibrate_bias` chooses on
+    ``data``'s subjects, unless ``spotting`` gives one). Returns
+    (:class:`sw_hps.hmm.GestureModels`, the calibration's F1 per bias or None)."""
+    import dataclasses
+    if data.subject is None:
+        raise ValueError("the dataset has no subject (or writer) key: the threshold bias is "
+                         "calibrated on held-out subjects")
+    options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
+    sequences = distance_sequences(data, step, front_end)
+    calibration = None
+    if "threshold_bias" not in (spotting or {}):
+        options["threshold_bias"], calibration = calibrate_bias(
+            data, sequences, states=states, step=step, emission_floor=emission_floor,
+            per_stream=per_stream, pause=pause, seed=seed, spotting=options,
+            front_end=front_end)
+    models = train_models(sequences, data.label, data.class_names, states,
+                          emission_floor=emission_floor,
+                          meta=dict(meta or {}, front_end=front_end, symbols="distance",
+                                    spotting_calibration=calibration))
+    return dataclasses.replace(models, spotting=options), calibration

@@ -48,8 +48,16 @@ class LiveSession:
         Worker threads of the stereo cost stage.
     """
 
-    def __init__(self, params, models, *, threads: int | None = None):
+    def __init__(self, params, models, *, threads: int | None = None,
+                 spotting: str = "thesis", width: int | None = None):
         self.params, self.models, self.threads = params, models, threads
+        if spotting not in ("thesis", "continuous"):
+            raise ValueError(f"spotting must be 'thesis' or 'continuous', got {spotting!r}")
+        self.spotting = spotting
+        self._spotter = None
+        if spotting == "continuous":
+            from sw_hps.streaming import StreamSpotter
+            self._spotter = StreamSpotter(models, 640 if width is None else width)
         self.lock = threading.Lock()
         self.frames = 0
         self.recognised: list[dict] = []
@@ -88,10 +96,14 @@ class LiveSession:
         traj = track(np.array(self._cents, np.int64), np.array(self._areas, np.int64), p)
         self._traj = traj
         flag = bool(traj.flag[-1])
-        ended = self._was_flagged and not flag
-        self._was_flagged = flag
-        if ended:
-            self._recognise(traj, n)
+        if self._spotter is not None:     # every frame's record, as the board takes it
+            x_fixed, y_fixed = (int(v) for v in traj.smoothed[-1])
+            self._name(n, self._spotter.take(x_fixed, y_fixed, bool(stages.centroid.area)))
+        else:
+            ended = self._was_flagged and not flag
+            self._was_flagged = flag
+            if ended:
+                self._recognise(traj, n)
         pictures = {"left camera": frame_to_bgr(left_bytes),
                     "right camera": frame_to_bgr(right_bytes)}
         bits = max(1, (p.max_disparity - 1).bit_length())
@@ -136,11 +148,29 @@ class LiveSession:
                 {"frame": n, "recognised": last["name"], "telegram": last["telegram"],
                  "first": last["first"], "last": last["last"]}])[-10:]
 
+    def _name(self, n: int, detections) -> None:
+        """Continuous spotting: the gestures named at frame ``n``."""
+        from sw_hps.telegram import GESTURE_NAMES, telegram
+        for d in detections:
+            code = telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None
+            entry = {"name": d.name, "first": d.first, "last": d.last, "telegram": code,
+                     "score": round(float(d.score), 3)}
+            with self.lock:
+                self.gestures = self.gestures + [entry]
+                self.state["gestures"] = self.gestures
+                self.state.update(recognised=d.name, telegram=code, recognised_at=n)
+                self.state["history"] = (self.state["history"] + [
+                    {"frame": n, "recognised": d.name, "telegram": code, "first": d.first,
+                     "last": d.last}])[-10:]
+
     def end(self) -> None:
         """The source ended (a clip's or video's last frame, ``--frames``
         reached, Ctrl-C): a gesture still flagged ends here, as when the
         cameras hold the hand still (what ``stereogest pipeline`` does at a
-        clip's end), and is named."""
+        clip's end), and is named; continuous spotting names what is pending."""
+        if self._spotter is not None:
+            self._name(self.frames, self._spotter.flush())
+            return
         if self._was_flagged and self._traj is not None:
             self._was_flagged = False
             self._recognise(self._traj, self.frames)

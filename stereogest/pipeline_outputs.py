@@ -102,23 +102,31 @@ def progress_printer(quiet: bool):
     return show
 
 
-def shipped_model_path() -> Path:
-    """The trained HMM model shipped with the board application (``make model``
-    rebuilds it)."""
+#: Spotting modes of the board application (``python -m sw_hps --spotting``).
+SPOTTING_MODES = ("thesis", "continuous")
+
+
+def shipped_model_path(spotting: str = "thesis") -> Path:
+    """The trained HMM model shipped with the board application for a
+    spotting mode (``make model`` rebuilds them)."""
     import sw_hps
-    return Path(sw_hps.__file__).parent / "models" / "gestures7.json"
+    name = {"thesis": "gestures7.json", "continuous": "continuous7.json"}[spotting]
+    return Path(sw_hps.__file__).parent / "models" / name
 
 
-def load_board_models(path=None):
-    """The models at ``path`` (None: the shipped ones), refused with a
-    ``ValueError`` naming the file if the board application would refuse them
-    (``sw_hps.app.check_models``), before any work is done."""
+def load_board_models(path=None, spotting: str = "thesis"):
+    """The models at ``path`` (None: the shipped ones of that spotting mode),
+    refused with a ``ValueError`` naming the file if the board application
+    would refuse them (``sw_hps.app.check_models``; continuous spotting:
+    ``sw_hps.streaming.check_streaming_models``), before any work is done."""
     from sw_hps.app import check_models
     from sw_hps.hmm import load_models
-    path = shipped_model_path() if path is None else path
+    from sw_hps.streaming import check_streaming_models
+    path = shipped_model_path(spotting) if path is None else path
     models = load_models(path)
     try:
-        return check_models(models)
+        models = check_models(models)
+        return check_streaming_models(models) if spotting == "continuous" else models
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
 
@@ -163,6 +171,25 @@ def gesture_entries(results: list[dict], flag, first_frame: int = 0) -> list[dic
             "telegram": r["telegram"] if r["sent"] else None,
             "score": None if score is None else round(float(score), 3)})
     return out
+
+
+def stream_results(models, trajectory, frame_width: int, first_frame: int = 0) -> list[dict]:
+    """The board application's continuous spotting (``--spotting continuous``:
+    :class:`sw_hps.streaming.StreamSpotter`, what it runs on each record of the
+    FIFO's streaming mode) on a trajectory's records, the source's end
+    flushing: entries like :func:`board_results` (every one recognised; the
+    threshold model refuses the rest)."""
+    from sw_hps.streaming import StreamSpotter
+    from sw_hps.telegram import GESTURE_NAMES, telegram
+    spotter = StreamSpotter(models, frame_width)
+    named = []
+    for (x, y), area in zip(trajectory.smoothed, trajectory.area):
+        named += spotter.take(int(x), int(y), bool(area))
+    named += spotter.flush()
+    return [{"outcome": "recognised", "name": d.name, "first": d.first + first_frame,
+             "last": d.last + first_frame,
+             "telegram": telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None,
+             "score": round(float(d.score), 3)} for d in named]
 
 
 def recognised_gestures(results: list[dict]) -> list[dict]:

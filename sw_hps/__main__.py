@@ -10,6 +10,7 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this project
                      [--baudrate 115200] [--rn42-address ADDR] [--poll-ms 5]
                      [--min-symbols 5] [--max-points 300] [--gesture-timeout 2]
                      [--heartbeat 60] [--sim-trajectory FILE.csv] [--log-level info]
+                     [--spotting thesis|continuous]
 
 The FIFO slave sits at ``--bridge-offset`` inside the lightweight bridge
 (``/dev/mem`` at ``0xFF200000``) or at offset 0 of the UIO map; the UART (``--robot
@@ -18,6 +19,14 @@ runs against :class:`~sw_hps.simulated.SimulatedFifoPeripheral` (and a simulated
 for ``--robot uart``), playing ``--sim-trajectory`` (``frame,x,y,flag`` in pixels, as
 ``stereogest pipeline`` writes it), one video frame per poll, then prints one JSON
 line ``{"gestures": [...]}`` and exits; without a trajectory it idles until stopped.
+
+``--spotting thesis`` (the default) is the thesis' rest-gesture-rest protocol:
+the FPGA's spotting flag marks each gesture, the HMMs name it. ``--spotting
+continuous`` runs the FIFO in streaming mode and :mod:`sw_hps.streaming` finds
+the gestures in the stream itself (one after another, no rest needed, idle
+motion refused); it needs a model file with a ``spotting`` entry
+(``stereogest train --continuous``); ``--min-symbols``, ``--max-points``,
+``--gesture-timeout`` and ``--heartbeat`` are the thesis mode's.
 
 ``--gesture-timeout`` drops a gesture whose gesture bit stays at "gesture in progress"
 with no pair for that many seconds (a stuck bit); ``--heartbeat`` logs an "alive" line
@@ -46,7 +55,8 @@ from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
 from .robot import NullLink, SerialLink, UartLink, configure_rn42, normalise_bt_address
 from .simulated import (SimulatedFifoPeripheral, SimulatedUart, read_trajectory_csv,
-                        simulate_trajectory)
+                        run_stream, simulate_stream, simulate_trajectory)
+from .streaming import StreamingApp, check_streaming_models
 
 PROG = "python -m sw_hps"
 #: Bytes mapped from the FIFO's base (FIFO and UART must fit).
@@ -115,6 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
                         f"(default {DEFAULT_HEARTBEAT:g})")
     parser.add_argument("--sim-trajectory",
                         help="with --bus sim: trajectory.csv to play (frame,x,y,flag)")
+    parser.add_argument("--spotting", default="thesis", choices=("thesis", "continuous"),
+                        help="thesis: the FPGA's flag marks each gesture (default); "
+                        "continuous: every frame streamed, gestures found one after another "
+                        "(a model file from 'stereogest train --continuous')")
     parser.add_argument("--log-level", default="info", choices=LOG_LEVELS,
                         help="logging level (default info)")
     return parser
@@ -177,11 +191,39 @@ def _make_link(args, bus):
     return link
 
 
+def _run_streaming(args, models, bus, link, started) -> int:
+    """--spotting continuous: the streaming loop on the bus (a simulated FIFO
+    playing --sim-trajectory with --bus sim)."""
+    if args.bus == "sim" and args.sim_trajectory is not None:
+        x, y, _flag = read_trajectory_csv(args.sim_trajectory)
+        app = simulate_stream(models, x, y, pixels=True, link=link, bus=bus,
+                              sleep=time.sleep, poll_interval=args.poll_ms / 1000.0)
+        started(app)
+        run_stream(app)
+        print(json.dumps({"gestures": [r.to_dict() for r in app.results]}))
+        app.shutdown()
+        return 0
+    if args.bus == "sim":
+        bus.attach(0, SimulatedFifoPeripheral(reads_per_frame=1))
+    app = StreamingApp(models, FifoPeripheral(bus), link, poll_interval=args.poll_ms / 1000.0)
+    started(app)
+    log.info("running (continuous spotting): bus %s, robot %s, %d classes %s", args.bus,
+             args.robot, len(models.class_names), list(models.class_names))
+    app.run()
+    app.shutdown()
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point; returns the exit status (never raises)."""
     try:
         args = parse_args(sys.argv[1:] if argv is None else argv)
         models = check_models(load_models(args.model))
+        if args.spotting == "continuous":
+            try:
+                check_streaming_models(models)
+            except ValueError as exc:
+                raise UsageError(f"argument --spotting: {exc}") from None
         trajectory = read_trajectory_csv(args.sim_trajectory) \
             if args.sim_trajectory is not None else None
     except (UsageError, ValueError) as exc:
@@ -207,10 +249,13 @@ def main(argv=None) -> int:
     app = None
     previous = {}
 
+    app_box = [None]      # the streaming loop, once it runs
+
     def stop(signum, frame):
         log.info("signal %d: stopping", signum)
-        if app is not None:
-            app.request_stop()
+        for running in (app, app_box[0]):
+            if running is not None:
+                running.request_stop()
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         previous[signum] = signal.signal(signum, stop)
@@ -221,6 +266,9 @@ def main(argv=None) -> int:
         options = dict(min_symbols=args.min_symbols, max_points=args.max_points,
                        poll_interval=args.poll_ms / 1000.0,
                        gesture_timeout=args.gesture_timeout, heartbeat=args.heartbeat)
+        if args.spotting == "continuous":
+            return _run_streaming(args, models, bus, link,
+                                  lambda running: app_box.__setitem__(0, running))
         if args.bus == "sim" and trajectory is not None:
             x, y, flag = trajectory
             simulation = simulate_trajectory(models, x, y, flag, link=link, bus=bus,
@@ -243,7 +291,7 @@ def main(argv=None) -> int:
         log.debug("traceback", exc_info=True)
         return 1
     finally:
-        if link is not None and app is None:
+        if link is not None and app is None and app_box[0] is None:
             link.close()
         bus.close()
         for signum, handler in previous.items():

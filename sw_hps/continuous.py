@@ -35,12 +35,17 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["Detection", "ContinuousRecogniser", "threshold_model", "SPOTTING_DEFAULTS",
-           "check_spotting"]
+           "STEP_WIDTH", "check_spotting", "step_pixels"]
 
 #: Options of the continuous recogniser and their defaults; a model file's
 #: ``spotting`` entry may set each (validated by :func:`check_spotting`).
-SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 8, "min_symbols": 4}
-_RANGES = {"threshold_bias": (-10.0, 10.0), "end_delay": (1, 1000), "min_symbols": (1, 1000)}
+#: ``step`` is the travel per symbol (:class:`sw_hps.orientation.DistanceSymbols`)
+#: in pixels of a :data:`STEP_WIDTH`-pixel-wide frame, scaled to the frame's width.
+SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 8, "min_symbols": 4, "step": 20}
+_RANGES = {"threshold_bias": (-10.0, 10.0), "end_delay": (1, 1000), "min_symbols": (1, 1000),
+           "step": (1, 640)}
+#: The frame width ``step`` is given at (the board's 640 x 480).
+STEP_WIDTH = 640
 _NEG = -np.inf
 
 
@@ -66,6 +71,12 @@ def check_spotting(options) -> dict:
             raise ValueError(f"spotting {key} must be {kind} in [{lo}, {hi}], got {value!r}")
         out[key] = int(value) if integer else float(value)
     return out
+
+
+def step_pixels(step: int, frame_width: int) -> int:
+    """The spotting option ``step`` (pixels at :data:`STEP_WIDTH`) at a frame
+    ``frame_width`` pixels wide (at least 1)."""
+    return max(1, round(step * frame_width / STEP_WIDTH))
 
 
 def threshold_model(models):
@@ -116,8 +127,9 @@ class ContinuousRecogniser:
     ----------
     models : sw_hps.hmm.GestureModels
         Discrete class models (one left-right HMM per class).
-    threshold_bias, end_delay, min_symbols
-        :data:`SPOTTING_DEFAULTS`; ``end_delay`` in frames.
+    threshold_bias, end_delay, min_symbols, step
+        :data:`SPOTTING_DEFAULTS`; ``end_delay`` in frames; ``step`` is kept
+        (:attr:`symbol_step`) for whoever makes the symbols.
 
     Call :meth:`step` once per frame with that frame's symbol (None when the
     hand did not move enough for one), :meth:`flush` when the hand leaves or
@@ -133,6 +145,7 @@ class ContinuousRecogniser:
         self.threshold_bias = opts["threshold_bias"]
         self.end_delay = opts["end_delay"]
         self.min_symbols = opts["min_symbols"]
+        self.symbol_step = opts["step"]
         self.class_names = tuple(models.class_names)
         hmms = list(models.models)
         offsets = np.concatenate([[0], np.cumsum([m.num_states for m in hmms])])
@@ -165,6 +178,11 @@ class ContinuousRecogniser:
         self._symbols = 0
         self._pending = None
         self._longer = False             # a longer gesture may hold the pending one
+
+    @property
+    def pending(self) -> bool:
+        """A gesture end has been found and is not yet named."""
+        return self._pending is not None
 
     def step(self, frame: int, symbol=None) -> list[Detection]:
         """Take frame ``frame`` (rising) and its symbol (0..M-1, or None)."""

@@ -12,7 +12,8 @@ Model file (JSON), version 3::
      "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
-     "spotting": null | {"threshold_bias": b, "end_delay": n, "min_symbols": k},
+     "spotting": null | {"threshold_bias": b, "end_delay": n, "min_symbols": k,
+                          "step": s},
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,

@@ -37,7 +37,8 @@ import numpy as np
 from .app import GestureApp, GestureResult, State
 from .bus import SimBus
 from .fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
-                   CTRL_NO_GESTURE, CTRL_STREAM, DATO_X_FLAG, DATO_Y_PRESENT, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
+                   CTRL_NO_GESTURE, CTRL_STREAM, DATA_MASK, DATO_X, DATO_X_FLAG, DATO_Y,
+                   DATO_Y_PRESENT, FIFO_DEPTH, FRAME_WIDTH as FIFO_FRAME_WIDTH, LONGITUD_X,
                    LONGITUD_Y, REGISTER_SPAN, FifoPeripheral, to_fixed)
 from .hmm import GestureModels
 from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID,
@@ -46,7 +47,8 @@ from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_
 from .robot import NullLink
 
 __all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv", "SimulatedClock",
-           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "streaming_words"]
+           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "streaming_words",
+           "simulate_stream", "run_stream"]
 
 log = logging.getLogger(__name__)
 
@@ -487,3 +489,39 @@ def streaming_words(trajectory, depth: int = FIFO_DEPTH) -> list[tuple[int, int]
     peripheral.step(peripheral.frames_pending)
     return [(peripheral.read32(DATO_X), peripheral.read32(DATO_Y))
             for _ in range(min(len(peripheral.fifo_x), len(peripheral.fifo_y)))]
+
+
+def simulate_stream(models, x, y, present=None, *, pixels: bool = False, link=None,
+                    bus: SimBus | None = None, frame_width: int = FIFO_FRAME_WIDTH,
+                    sleep: Callable[[float], None] | None = None, **app_options):
+    """The continuous spotting loop (:class:`sw_hps.streaming.StreamingApp`)
+    on a simulated FIFO in streaming mode playing a trajectory (one frame per
+    Control read), then the frames of a still hand until nothing is pending.
+    Returns the app, not yet run (:func:`run_stream` runs it)."""
+    from .streaming import StreamingApp
+    peripheral = SimulatedFifoPeripheral(reads_per_frame=1)
+    x = np.asarray(x).reshape(-1)
+    peripheral.queue_trajectory(x, y, np.zeros(len(x), bool), pixels=pixels, present=present)
+    if bus is None:
+        bus = SimBus(peripheral)
+    else:
+        bus.attach(0, peripheral)
+    link = link if link is not None else NullLink()
+    app = StreamingApp(models, FifoPeripheral(bus), link,
+                       sleep=sleep if sleep is not None else SimulatedClock().sleep,
+                       frame_width=frame_width, **app_options)
+    app.peripheral = peripheral
+    return app
+
+
+def run_stream(app):
+    """Run an app from :func:`simulate_stream` until every frame was taken and
+    nothing is pending; returns it (``app.results``: the gestures it named)."""
+    peripheral = app.peripheral
+
+    def finished() -> bool:
+        return (peripheral.frames_pending == 0 and not peripheral.fifo_x and app.idle
+                and app.frames > 0)
+
+    app.run(max_iterations=4 * (peripheral.frames_pending + 1000), until=finished)
+    return app

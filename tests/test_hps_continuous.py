@@ -130,6 +130,7 @@ def test_spotting_options_live_in_the_model_file(tmp_path):
     path = tmp_path / "m.json"
     save_models(models, path)
     loaded = load_models(path)
-    assert loaded.spotting == {"threshold_bias": -0.5, "end_delay": 6, "min_symbols": 4}
+    assert loaded.spotting == {"threshold_bias": -0.5, "end_delay": 6, "min_symbols": 4,
+                               "step": 20}
     rec = ContinuousRecogniser(loaded, **loaded.spotting)
     assert (rec.threshold_bias, rec.end_delay) == (-0.5, 6)

@@ -265,3 +265,30 @@ def test_page_names_a_gesture_the_source_ended_inside(held_clips, models):
     (g,) = s.gestures
     assert '<span id="gesture">stop</span>' in dom
     assert f'<span id="commands">stop (frames {g["first"]}-{clip.frames - 1})</span>' in dom
+
+
+def test_live_and_pipeline_continuous_spotting_agree(tmp_path, capsys):
+    """--spotting continuous (the board's continuous spotting on every frame's
+    record): two gestures back to back, the second ending with the clip;
+    `live` and `pipeline` name the same gestures with the same spans, as the
+    board's loop does on the streaming FIFO (sw_hps.streaming.StreamSpotter,
+    tested against the measured spotter in tests/test_hps_streaming.py)."""
+    from sim.clip import save_clip
+    import dataclasses
+    first = render_clip("right", 4, 320, 240, n_pre_rest=5, n_post_rest=2)
+    second = render_clip("stop", 4, 320, 240, n_pre_rest=0, n_post_rest=3)
+    both = dataclasses.replace(
+        first, left=np.concatenate([first.left, second.left]),
+        right=np.concatenate([first.right, second.right]),
+        hand_xy=np.concatenate([first.hand_xy, second.hand_xy]),
+        hand_area=np.concatenate([first.hand_area, second.hand_area]))
+    path = save_clip(both, tmp_path / "two")
+    frames = len(both.left)
+    assert main(["pipeline", str(path), "-o", str(tmp_path / "out"), "--spotting",
+                 "continuous", "--json", "--quiet"]) == 0
+    batch = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert main(["live", "--clip", str(path), "--fast", "--port", "0", "--quiet",
+                 "--frames", str(frames), "--spotting", "continuous", "--json"]) == 0
+    live = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert live["gestures"] == batch["gestures"]
+    assert [g["name"] for g in batch["gestures"]] == ["right", "stop"], batch["gestures"]

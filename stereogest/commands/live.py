@@ -44,6 +44,10 @@ def add_arguments(p):
                         "320x240 one thread beat two on a 2-core machine in CPU and wall "
                         "time, benchmarks/bench_live.py)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--spotting", choices=("thesis", "continuous"), default="thesis",
+                   help="thesis: a gesture between rests (default); continuous: the board's "
+                        "continuous spotting, gestures one after another (the model shipped "
+                        "for it unless --model)")
     add_hand_tracking_option(p)
     add_json_switch(p)
 
@@ -69,7 +73,7 @@ def run(args) -> int:
         check_int("--frames", args.frames, 1, MAX_FRAMES)
     check_int("--port", args.port, 0, 65535)
     check_int("--threads", args.threads, 1, 64)
-    models = load_board_models(args.model)
+    models = load_board_models(args.model, args.spotting)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
@@ -87,7 +91,8 @@ def run(args) -> int:
     params = PipelineParams.for_frame(width, hand_tracking=args.hand_tracking)
     try:
         params.validate(width, height)
-        session = LiveSession(params, models, threads=args.threads)
+        session = LiveSession(params, models, threads=args.threads, spotting=args.spotting,
+                              width=width)
         server = LiveServer(session, width, height, args.port)
     except BaseException:
         if closer is not None:

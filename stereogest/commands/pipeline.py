@@ -6,16 +6,19 @@ orientation symbols; then the board application's HMMs name the gesture.
 Writes OUTDIR/trajectory.csv and pictures of every stage for chosen frames. The
 spotting threshold Tm is scaled to the frame width and the hold set as in
 'stereogest demo' (PipelineParams.for_frame). With --calibration both cameras
-are rectified first (hdl/rectify.py and its model)."""
+are rectified first (hdl/rectify.py and its model). --spotting continuous names
+the gestures as 'python -m sw_hps --spotting continuous' does on the FIFO's
+streaming mode (one after another, no rest needed; the model shipped for it,
+sw_hps/models/continuous7.json, unless --model); --json lists every gesture."""
 from __future__ import annotations
 
 import json
 import sys
 import time
 
-from stereogest.pipeline_outputs import (STALE, load_board_models, parse_frames,
-                                         progress_printer, recognised_gestures,
-                                         board_results, warn_if_empty,
+from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, board_results,
+                                         load_board_models, parse_frames, progress_printer,
+                                         recognised_gestures, stream_results, warn_if_empty,
                                          write_outputs)
 
 NAME = "pipeline"
@@ -44,6 +47,9 @@ def add_arguments(p):
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file of the board application that names the gesture "
                         "(default: the trained model shipped in sw_hps/models)")
+    p.add_argument("--spotting", choices=SPOTTING_MODES, default="thesis",
+                   help="thesis: the FPGA's spotting flag marks each gesture (default); "
+                        "continuous: the board's continuous spotting on every frame")
     p.add_argument("--json", action="store_true",
                    help="print the result (with 'recognised') as a JSON last line")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
@@ -61,7 +67,7 @@ def run(args) -> int:
     clip = load_clip(args.clip)
     frames = clip.left.shape[0]
     chosen = set(parse_frames(args.frames, frames, clip.motion_frames))
-    models = load_board_models(args.model)
+    models = load_board_models(args.model, args.spotting)
     overrides = {k: v for k, v in (("spot_threshold", args.spot_threshold),
                                    ("spot_hold", args.spot_hold)) if v is not None}
     params = PipelineParams.for_frame(clip.width, hand_tracking=args.hand_tracking,
@@ -98,7 +104,10 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
                                     rectification=rectification)
     seconds = time.perf_counter() - start
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
-    gestures = recognised_gestures(board_results(models, trajectory))
+    if args.spotting == "continuous":
+        gestures = recognised_gestures(stream_results(models, trajectory, clip.width))
+    else:
+        gestures = recognised_gestures(board_results(models, trajectory))
     recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
         else (None, None)
     summary = write_outputs(outdir, clip, trajectory, kept, params, seconds,

@@ -32,6 +32,9 @@ NAME = "train"
 HELP = "train the gesture HMMs (optionally choosing the number of states by cross-validation)"
 
 _DEFAULT_STATES = 5
+#: --continuous: states per class model (chosen on one synthetic corpus, its
+#: figures measured on another; README "Continuous recognition")
+_CONTINUOUS_STATES = 8
 _DEFAULT_FOLDS = 10
 
 
@@ -54,6 +57,7 @@ def add_arguments(p):
                    help=f"emission model (default {DEFAULT_EMISSION})")
     p.add_argument("--states", type=int, default=None, metavar="N",
                    help=f"states per model, 1..{MAX_STATES} (default {_DEFAULT_STATES} discrete, "
+                        f"{_CONTINUOUS_STATES} --continuous, "
                         f"{_GAUSSIAN_STATES} gaussian; not with --cv-states)")
     p.add_argument("--components", type=int, default=None, metavar="K",
                    help="gaussian: most components per class, 1..16 (default: one per "
@@ -101,6 +105,15 @@ def add_arguments(p):
     p.add_argument("--report", metavar="PREFIX", default=None,
                    help="cross-validation report PREFIX.json and PREFIX.png "
                         "(default: MODEL without .json, plus -cv)")
+    p.add_argument("--continuous", action="store_true",
+                   help="models for the board's continuous spotting (python -m sw_hps "
+                        "--spotting continuous): discrete, symbols at equal travel, the "
+                        "threshold bias calibrated on the dataset's subjects (two halves); "
+                        "no per-class rejection (the threshold model refuses)")
+    from sw_hps.continuous import SPOTTING_DEFAULTS
+    p.add_argument("--step", type=int, default=None, metavar="PX",
+                   help="--continuous: pixels of travel per symbol at 640 wide, 1..640 "
+                        f"(default {SPOTTING_DEFAULTS['step']})")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_json_switch(p, always=True)
 
@@ -128,6 +141,20 @@ def _check_options(args) -> list[int] | None:
     from recognition.hmm_train import MAX_STATES
     cv_states = None
     gaussian = args.emission == "gaussian"
+    if args.step is not None and not args.continuous:
+        raise ValueError("--step applies to --continuous")
+    if args.continuous:
+        if args.emission != "discrete":
+            raise ValueError("--continuous needs --emission discrete (the threshold model is "
+                             "built from discrete states)")
+        for option, value in (("--cv-states", args.cv_states), ("--resample", args.resample),
+                              ("--groups", args.groups), ("--folds", args.folds)):
+            if value is not None:
+                raise ValueError(f"{option} does not apply with --continuous")
+        if args.step is not None and not 1 <= args.step <= 640:
+            raise ValueError(f"--step must be in 1..640 pixels, got {args.step}")
+        if args.states is None:
+            args.states = _CONTINUOUS_STATES
     if gaussian:
         from recognition.gaussian_train import DEFAULT_RESAMPLE
         if args.cv_states is not None:
@@ -248,6 +275,8 @@ def run(args) -> int:
                          f"recogniser needs at least 2")
     if args.emission == "gaussian":
         return _run_gaussian(args, data, data_path, say, start)
+    if args.continuous:
+        return _run_continuous(args, data, data_path, say, start)
     groups = _groups(data_path, args.groups, data) if args.groups is not None else None
     front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
     say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
@@ -358,4 +387,28 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
                "seconds": round(time.perf_counter() - start, 2)}
     say(f"wrote {args.output}")
     print(json.dumps(summary))
+    return 0
+
+
+def _run_continuous(args, data, data_path, say, start) -> int:
+    from recognition.continuous import train_continuous
+    from sw_hps.continuous import SPOTTING_DEFAULTS
+    from sw_hps.hmm import save_models
+    if data.subject is None or len(set(data.subject.tolist())) < 2:
+        raise ValueError(f"{data_path}: --continuous calibrates on held-out subjects: the "
+                         f"dataset needs a subject (or writer) key with at least 2 subjects")
+    step = SPOTTING_DEFAULTS["step"] if args.step is None else args.step
+    say(f"{len(data)} trajectories of {len(set(data.subject.tolist()))} subjects; training "
+        f"{args.states}-state models on symbols every {step} px of travel, calibrating the "
+        "threshold bias")
+    models, calibration = train_continuous(
+        data, states=args.states, step=step,
+        emission_floor=args.emission_floor or 1e-3, seed=args.seed,
+        meta={"dataset": str(data_path), "states": args.states})
+    save_models(models, args.output)
+    say(f"wrote {args.output}")
+    print(json.dumps({"output": str(args.output), "classes": list(data.class_names),
+                      "states": args.states, "spotting": models.spotting,
+                      "calibration_f1": calibration,
+                      "seconds": round(time.perf_counter() - start, 2)}))
     return 0

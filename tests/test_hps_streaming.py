@@ -1,0 +1,190 @@
+"""sw_hps/streaming.py: the board's continuous spotting on the FIFO's streaming
+mode names the gestures recognition.continuous.spot_stream names (the same
+code path the figures come from), flushes when the hand leaves, survives
+FIFO-FULL and a cleared GO, sends each command once; models trained by
+recognition.continuous.train_continuous and `stereogest train --continuous`;
+`python -m sw_hps --spotting continuous`."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from recognition.continuous import spot_stream, stream_pixels, train_continuous
+from recognition.corpus import synthetic_corpus
+from recognition.streams import subject_streams
+from sw_hps.continuous import ContinuousRecogniser
+from sw_hps.hmm import load_models, save_models
+from sw_hps.simulated import run_stream, simulate_stream
+from sw_hps.streaming import StreamingApp, check_streaming_models
+from sw_hps.telegram import telegram
+
+STEP = 12
+
+
+@pytest.fixture(scope="module")
+def corpus():
+    return synthetic_corpus(per_class=8, people=3, seed=5)
+
+
+@pytest.fixture(scope="module")
+def models(corpus):
+    """Continuous models of two people (a fixed bias: no calibration here)."""
+    train = corpus.subset(np.flatnonzero(corpus.subject != 2))
+    m, calibration = train_continuous(train, states=6, step=STEP,
+                                      spotting={"threshold_bias": -0.5})
+    assert calibration is None and m.spotting["step"] == STEP
+    return m
+
+
+@pytest.fixture(scope="module")
+def stream(corpus):
+    """The third person's gestures joined into one stream."""
+    held = corpus.subset(np.flatnonzero(corpus.subject == 2))
+    return subject_streams(held, per_stream=8, seed=3)[0]
+
+
+def _smoothed_fixed(points):
+    """What the FIFO holds: the camera front end's 10.8 positions."""
+    from sim.model.pipeline import PipelineParams, track
+    pts = np.floor(np.maximum(np.asarray(points, np.float64), 0)).astype(np.int64)
+    return track(pts, np.ones(len(pts), np.int64), PipelineParams()).smoothed
+
+
+def test_board_loop_names_what_the_measured_spotter_names(models, stream):
+    golden = spot_stream(ContinuousRecogniser(models, **models.spotting), stream.points, STEP,
+                         "camera")
+    assert len(golden) >= 4, golden
+    fixed = _smoothed_fixed(stream.points)
+    assert np.array_equal(fixed >> 8, stream_pixels(stream.points, "camera"))
+    app = run_stream(simulate_stream(models, fixed[:, 0], fixed[:, 1]))
+    got = [(r.class_name, r.first, r.last) for r in app.results]
+    assert got == [(d.name, d.first, d.last) for d in golden]
+    # named at the same frames but the last, which the stream's end flushed
+    # there and the board names once the still hand's frames show it ended
+    # (within the recogniser's longest wait, 4 end delays)
+    assert [r.named_at for r in app.results[:-1]] == [d.named_at for d in golden[:-1]]
+    assert app.results[-1].named_at - app.results[-1].last <= 4 * models.spotting["end_delay"]
+    # each command sent once, in order
+    sent = list(app.link.sent)
+    assert sent == [telegram(r.class_name) for r in app.results]
+    assert all(r.sent for r in app.results)
+    assert app.results[0].to_dict()["telegram"] == telegram(app.results[0].class_name).hex(" ")
+
+
+def test_a_hand_that_leaves_flushes(models, stream):
+    """Frames without a hand name what is pending at once and start afresh:
+    a gesture the recogniser held for a while is named the frame the hand
+    leaves, with the same span."""
+    fixed = _smoothed_fixed(stream.points)
+    plain = run_stream(simulate_stream(models, fixed[:, 0], fixed[:, 1])).results
+    held = next(r for r in plain if r.named_at > r.last + 1)
+    cut = held.last + 1
+    present = np.ones(len(fixed), bool)
+    present[cut:cut + 30] = False
+    app = run_stream(simulate_stream(models, fixed[:, 0], fixed[:, 1], present))
+    again = next(r for r in app.results if r.first == held.first)
+    assert (again.class_name, again.last, again.named_at) == (held.class_name, held.last, cut)
+
+
+def test_fifo_full_and_a_cleared_go_restart_the_stream(models, stream, caplog):
+    fixed = _smoothed_fixed(stream.points)
+    app = simulate_stream(models, fixed[:, 0], fixed[:, 1])
+    peripheral = app.peripheral
+    app.run(max_iterations=20)
+    assert peripheral.streaming and peripheral.go and app.frames > 0
+    peripheral.full = True
+    app.run(max_iterations=1)
+    assert app.lost == 1 and not peripheral.full and not peripheral.fifo_x
+    assert "FIFO-FULL" in caplog.text
+    peripheral.write32(0x0C, 0)           # someone cleared GO and STREAM
+    app.run(max_iterations=1)
+    assert peripheral.go and peripheral.streaming
+    assert "setting them again" in caplog.text
+
+
+def test_a_bus_fault_does_not_end_the_loop(models, caplog):
+    class Broken:
+        span = 0x1000
+
+        def read32(self, offset):
+            raise OSError("bus error")
+
+        def write32(self, offset, value):
+            raise OSError("bus error")
+
+    from sw_hps.fifo import FifoPeripheral
+    from sw_hps.robot import NullLink
+    slept = []
+    app = StreamingApp(models, FifoPeripheral(Broken()), NullLink(), sleep=slept.append)
+    assert app.run(max_iterations=4) == []
+    assert app.errors == 4 and slept == [0.1, 0.2, 0.4, 0.8]
+    assert "OSError: bus error" in caplog.text
+
+
+def test_models_without_spotting_are_refused(models):
+    import dataclasses
+    from stereogest.pipeline_outputs import shipped_model_path
+    with pytest.raises(ValueError, match="'spotting' entry"):
+        check_streaming_models(load_models(shipped_model_path()))      # gaussian
+    with pytest.raises(ValueError, match="'spotting' entry"):
+        check_streaming_models(dataclasses.replace(models, spotting=None))
+    with pytest.raises(ValueError, match=r"spotting step must be an integer in \[1, 640\]"):
+        dataclasses.replace(models, spotting={"step": 0})
+
+
+def test_model_file_keeps_the_spotting_options(models, tmp_path):
+    path = tmp_path / "m.json"
+    save_models(models, path)
+    again = load_models(path)
+    assert again.spotting == models.spotting and again.spotting["step"] == STEP
+
+
+def test_command_line_continuous(models, stream, tmp_path, capsys):
+    from sw_hps.__main__ import main
+    path = tmp_path / "m.json"
+    save_models(models, path)
+    fixed = _smoothed_fixed(stream.points)
+    csv = tmp_path / "t.csv"
+    csv.write_text("frame,x,y,flag\n" + "".join(
+        f"{n},{x / 256:.4f},{y / 256:.4f},0\n" for n, (x, y) in enumerate(fixed)))
+    assert main(["--model", str(path), "--bus", "sim", "--robot", "none", "--spotting",
+                 "continuous", "--sim-trajectory", str(csv), "--poll-ms", "0.01",
+                 "--log-level", "error"]) == 0
+    got = json.loads(capsys.readouterr().out.splitlines()[-1])["gestures"]
+    golden = spot_stream(ContinuousRecogniser(models, **models.spotting), stream.points, STEP,
+                         "camera")
+    assert [(g["name"], g["first"], g["last"]) for g in got] == \
+        [(d.name, d.first, d.last) for d in golden]
+    from stereogest.pipeline_outputs import shipped_model_path
+    assert main(["--model", str(shipped_model_path()), "--bus", "sim", "--robot", "none",
+                 "--spotting", "continuous"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "argument --spotting: continuous spotting needs" in err
+
+
+def test_train_continuous_command(tmp_path, capsys):
+    from recognition.datasets import save_trajectories
+    from stereogest.cli import main
+    data = synthetic_corpus(per_class=4, people=2, seed=9)
+    path = tmp_path / "c.npz"
+    save_trajectories(data, path)
+    out = tmp_path / "m.json"
+    assert main(["train", str(path), "-o", str(out), "--emission", "discrete", "--continuous",
+                 "--states", "4", "--step", "10", "--quiet"]) == 0
+    report = json.loads(capsys.readouterr().out.splitlines()[-1])
+    m = load_models(out)
+    assert m.spotting == report["spotting"] and m.spotting["step"] == 10
+    assert m.spotting["threshold_bias"] in [float(b) for b in report["calibration_f1"]]
+    for argv, message in (
+            (["--continuous"], "--continuous needs --emission discrete"),
+            (["--emission", "discrete", "--step", "5"], "--step applies to --continuous"),
+            (["--emission", "discrete", "--continuous", "--step", "0"],
+             "--step must be in 1..640"),
+            (["--emission", "discrete", "--continuous", "--resample", "32"],
+             "--resample does not apply with --continuous")):
+        assert main(["train", str(path), "-o", str(tmp_path / "x.json"), *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+        assert not (tmp_path / "x.json").exists()
