@@ -8,7 +8,9 @@ Layout of a clip directory::
     truth.csv   frame,hand_x,hand_y,hand_area,moving (rendered clips only)
 
 A rendered clip (``stereogest render``) knows its truth: ``gesture``, the
-:data:`TRUTH_FIELDS` and ``truth.csv``. Footage (``stereogest clip``, from
+:data:`TRUTH_FIELDS` and ``truth.csv``. A rendered sequence (``render
+--sequence``) also holds ``sequence``: every gesture with its motion span, in
+order; its ``gesture`` is the last one and ``motion_frames`` spans them all. Footage (``stereogest clip``, from
 video files or cameras) has none of them; ``gesture`` may still label it, and
 ``source`` says where the frames came from. Every command that reads clips
 accepts both.
@@ -103,6 +105,9 @@ class Clip:
         NaN where ``hand_area`` is 0.
     hand_area : (frames,) int64
         Number of hand pixels in the left image.
+    sequence : tuple of (str, int, int), optional
+        A rendered sequence: every gesture and its motion span (first, last),
+        in order, inside ``motion_frames``, the last one being ``gesture``.
     renderer : dict
         Extra JSON-serialisable metadata (renderer parameters).
     source : dict
@@ -119,6 +124,7 @@ class Clip:
     motion_frames: tuple[int, int] | None = None
     hand_xy: np.ndarray | None = None
     hand_area: np.ndarray | None = None
+    sequence: tuple | None = None
     renderer: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
 
@@ -141,13 +147,17 @@ class Clip:
 
     @property
     def moving(self) -> np.ndarray | None:
-        """(frames,) bool: True inside the motion span ``motion_frames`` (None
-        without truth)."""
+        """(frames,) bool: True inside the motion span ``motion_frames`` (of a
+        sequence: inside each gesture's span; None without truth)."""
         if self.motion_frames is None:
             return None
-        first, last = self.motion_frames
         index = np.arange(self.frames)
-        return (index >= first) & (index <= last)
+        spans = [self.motion_frames] if self.sequence is None else \
+            [(a, b) for _, a, b in self.sequence]
+        moving = np.zeros(self.frames, bool)
+        for first, last in spans:
+            moving |= (index >= first) & (index <= last)
+        return moving
 
     def metadata(self) -> dict:
         """The ``clip.json`` content of this clip."""
@@ -163,6 +173,9 @@ class Clip:
             if value is not None:
                 meta[key] = ([_plain(v) for v in value] if key == "motion_frames"
                              else _plain(value))
+        if self.sequence is not None:
+            meta["sequence"] = [{"gesture": g, "motion_frames": [int(a), int(b)]}
+                                for g, a, b in self.sequence]
         if self.renderer:
             meta["renderer"] = self.renderer
         if self.source:
@@ -242,7 +255,31 @@ def _check_metadata(meta, where: str) -> dict:
     for key in ("renderer", "source"):
         if key in meta and not isinstance(meta[key], dict):
             raise bad(key, "a JSON object")
+    if "sequence" in meta:
+        _check_sequence(meta, bad)
     return meta
+
+
+def _check_sequence(meta, bad) -> None:
+    expected = ("a non-empty list of {\"gesture\": NAME, \"motion_frames\": [first, last]} "
+                "in order, inside motion_frames, the last gesture being 'gesture'")
+    seq = meta["sequence"]
+    if "motion_frames" not in meta or not isinstance(seq, list) or not seq:
+        raise bad("sequence", expected)
+    lo, hi = meta["motion_frames"]
+    previous = lo - 1
+    for entry in seq:
+        if not isinstance(entry, dict) or set(entry) != {"gesture", "motion_frames"} \
+                or entry["gesture"] not in GESTURE_NAMES:
+            raise bad("sequence", expected)
+        span = entry["motion_frames"]
+        if (not isinstance(span, list) or len(span) != 2 or not all(_is_int(v) for v in span)
+                or not previous < span[0] <= span[1] <= hi):
+            raise bad("sequence", expected)
+        previous = span[1]
+    if seq[-1]["gesture"] != meta["gesture"] or seq[0]["motion_frames"][0] != lo \
+            or seq[-1]["motion_frames"][1] != hi:
+        raise bad("sequence", expected)
 
 
 def _check_truth_arrays(hand_xy: np.ndarray, hand_area: np.ndarray, frames: int,
@@ -483,6 +520,8 @@ def load_clip(path, mmap: bool = True) -> Clip:
                 face_disparity=meta["face_disparity"],
                 motion_frames=(meta["motion_frames"][0], meta["motion_frames"][1]),
                 left=left, right=right, hand_xy=hand_xy, hand_area=hand_area,
+                sequence=tuple((e["gesture"], *e["motion_frames"]) for e in meta["sequence"])
+                if "sequence" in meta else None,
                 renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     _check_truth_arrays(hand_xy, hand_area, clip.frames, _TRUTH)
     mismatch = np.flatnonzero(moving != clip.moving)

@@ -46,13 +46,14 @@ import numpy as np
 
 from sim.clip import MAX_DISPARITY, Clip, round_truth
 from sim.difficulties import Difficulties, camera_gains
-from sim.gesture_shapes import gesture_id, gesture_path, random_time_warp
+from sim.gesture_shapes import GESTURE_NAMES, gesture_id, gesture_path, random_time_warp
 from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
 
 __all__ = [
     "REFERENCE_WIDTH", "REFERENCE_HEIGHT", "LAYER_LABELS", "NOISE_SIGMA_Y",
     "NOISE_SIGMA_C", "RIGHT_Y_GAIN", "RIGHT_Y_OFFSET", "StereoScene", "render_clip",
+    "render_sequence", "SEQUENCE_LEAD", "SEQUENCE_TAIL",
     "WIDTH_RANGE", "HEIGHT_RANGE", "MAX_SEGMENT_FRAMES",
 ]
 
@@ -82,7 +83,7 @@ _ASPECT_RANGE = (0.9, 1.1)
 # Independent random streams (SeedSequence entropy words).
 _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = range(1, 6)
 _STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE, _STREAM_FOREARM = 6, 7, 8, 9
-_STREAM_CLUTTER, _STREAM_INTRUDER = 10, 11
+_STREAM_CLUTTER, _STREAM_INTRUDER, _STREAM_SEQUENCE = 10, 11, 12
 #: The intruder ball (reference px radius), its disparity below the hand's.
 _INTRUDER_RADIUS, _INTRUDER_BELOW_HAND = 26.0, 2
 #: Forearm (reference px): radius, wrist below the palm centre, segments of one
@@ -979,3 +980,55 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
                 face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
                 left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
                 renderer=scene.parameters())
+
+
+#: Frames of rest before the first gesture of a sequence (before the others:
+#: the pause after the previous one).
+SEQUENCE_LEAD = 10
+#: Frames of rest after a sequence's last gesture: enough for the thesis' hold.
+SEQUENCE_TAIL = 30
+
+
+def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
+                    height: int = REFERENCE_HEIGHT, *, pause=(0, 15), fps: int = 30,
+                    noise: bool = True, difficulties: Difficulties | None = None) -> Clip:
+    """One clip of several gestures one after another (issue 28): the same
+    person and room (``seed``), each gesture as :func:`render_clip` draws it
+    (every gesture path starts and ends at the rest position in front of the
+    chest), a pause of ``pause`` = (min, max) frames of rest between two
+    gestures (0: the hand flows from one into the next), drawn from ``seed``.
+
+    Returns
+    -------
+    Clip
+        ``sequence`` holds every gesture and its motion span; ``gesture`` is
+        the last one and ``motion_frames`` spans them all.
+    """
+    gestures = list(gestures)
+    if not gestures or any(g not in GESTURE_NAMES for g in gestures):
+        raise ValueError(f"sequence must name one or more of {', '.join(GESTURE_NAMES)}, "
+                         f"got {','.join(map(str, gestures)) or 'nothing'}")
+    lo, hi = pause
+    check_int("pause", lo, 0, MAX_SEGMENT_FRAMES)
+    check_int("pause", hi, lo, MAX_SEGMENT_FRAMES)
+    rng = np.random.default_rng([check_int("seed", seed, 0, 2 ** 63 - 1), _STREAM_SEQUENCE])
+    parts, spans, offset = [], [], 0
+    for k, gesture in enumerate(gestures):
+        after = SEQUENCE_TAIL if k == len(gestures) - 1 else int(rng.integers(lo, hi + 1))
+        part = render_clip(gesture, seed, width, height, fps=fps,
+                           n_pre_rest=SEQUENCE_LEAD if k == 0 else 0, n_post_rest=after,
+                           noise=noise, difficulties=difficulties)
+        first, last = part.motion_frames
+        spans.append((gesture, first + offset, last + offset))
+        offset += part.frames
+        parts.append(part)
+    head = parts[0]
+    return Clip(gesture=gestures[-1], seed=head.seed, fps=head.fps,
+                hand_disparity=head.hand_disparity, face_disparity=head.face_disparity,
+                motion_frames=(spans[0][1], spans[-1][2]),
+                left=np.concatenate([p.left for p in parts]),
+                right=np.concatenate([p.right for p in parts]),
+                hand_xy=np.concatenate([p.hand_xy for p in parts]),
+                hand_area=np.concatenate([p.hand_area for p in parts]),
+                sequence=tuple(spans),
+                renderer=dict(head.renderer, sequence_pause=[lo, hi]))

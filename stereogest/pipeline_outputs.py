@@ -187,9 +187,30 @@ def stream_results(models, trajectory, frame_width: int, first_frame: int = 0) -
         named += spotter.take(int(x), int(y), bool(area))
     named += spotter.flush()
     return [{"outcome": "recognised", "name": d.name, "first": d.first + first_frame,
-             "last": d.last + first_frame,
+             "last": d.last + first_frame, "named_at": d.named_at + first_frame,
              "telegram": telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None,
              "score": round(float(d.score), 3)} for d in named]
+
+
+def sequence_score(results: list[dict], sequence) -> dict:
+    """The named gestures (:func:`board_results` / :func:`stream_results`
+    entries, recognised ones) against a rendered sequence's truth
+    (``Clip.sequence``), matched as :func:`recognition.continuous.match_detections`
+    matches (right label, overlapping the true span by half the shorter):
+    true gestures, named, correct, false commands and, per matched gesture,
+    the frames from its true end to its naming (``named_at``; the last
+    flagged frame in the thesis mode)."""
+    from types import SimpleNamespace
+
+    from recognition.continuous import match_detections
+    named = [SimpleNamespace(name=r["name"], first=r["first"], last=r["last"],
+                             named_at=r.get("named_at", r["last"]))
+             for r in results if r["outcome"] == "recognised"]
+    spans = [(a, b) for _, a, b in sequence]
+    matched, latencies = match_detections(named, spans, [g for g, _, _ in sequence])
+    return {"true": len(spans), "named": len(named),
+            "correct": sum(k >= 0 for k in matched), "false": sum(k < 0 for k in matched),
+            "latencies": [int(v) for v in latencies]}
 
 
 def recognised_gestures(results: list[dict]) -> list[dict]:

@@ -248,3 +248,74 @@ def test_cli_bad_value_exits_2(tmp_path, capsys):
         cli.main(["render", "--gesture", "wave", "--seed", "1", "-o", str(tmp_path / "c")])
     assert exit_info.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_sequence_truth_and_its_clip_files(tmp_path):
+    """render_sequence (issue 28): the gestures one after another, each span
+    where its own clip puts it (the pauses drawn from the seed), the truth
+    saved and loaded; a clip.json whose sequence is not in order is refused."""
+    import json
+
+    from sim.clip import load_clip, save_clip
+    from sim.render import SEQUENCE_LEAD, SEQUENCE_TAIL, render_sequence
+    names = ["right", "stop", "left"]
+    clip = render_sequence(names, 3, 160, 120, pause=(0, 6), noise=False)
+    assert [g for g, _, _ in clip.sequence] == names and clip.gesture == "left"
+    spans = [(a, b) for _, a, b in clip.sequence]
+    assert spans[0][0] == SEQUENCE_LEAD and clip.frames - 1 - spans[-1][1] == SEQUENCE_TAIL
+    gaps = [b0 - a1 - 1 for (_, a1), (b0, _) in zip(spans, spans[1:])]
+    assert all(0 <= g <= 6 for g in gaps)
+    assert clip.motion_frames == (spans[0][0], spans[-1][1])
+    assert clip.moving.sum() == sum(b - a + 1 for a, b in spans)
+    # the same seed draws the same pauses; each gesture as render_clip draws it
+    again = render_sequence(names, 3, 160, 120, pause=(0, 6), noise=False)
+    assert again.sequence == clip.sequence and np.array_equal(again.left, clip.left)
+    alone = render_clip("stop", 3, 160, 120, n_pre_rest=0, n_post_rest=gaps[1], noise=False)
+    start = spans[1][0]
+    assert np.array_equal(clip.left[start:start + alone.frames], alone.left)
+    path = save_clip(clip, tmp_path / "seq")
+    loaded = load_clip(path)
+    assert loaded.sequence == clip.sequence and np.array_equal(loaded.moving, clip.moving)
+    meta = json.loads((path / "clip.json").read_text())
+    meta["sequence"][1], meta["sequence"][0] = meta["sequence"][0], meta["sequence"][1]
+    (path / "clip.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="clip.json: field 'sequence' must be"):
+        load_clip(path)
+    with pytest.raises(ValueError, match="sequence must name one or more"):
+        render_sequence(["wave"], 3, 160, 120)
+    with pytest.raises(ValueError, match="pause"):
+        render_sequence(names, 3, 160, 120, pause=(5, 2))
+
+
+def test_render_sequence_command_and_continuous_pipeline(tmp_path, capsys):
+    """`render --sequence` writes the truth; `pipeline --spotting continuous`
+    names every gesture of it and scores itself against that truth, where the
+    thesis' spotting (one flagged run over gestures without rests) names none."""
+    out = tmp_path / "seq"
+    assert cli.main(["render", "--sequence", "right,stop,left", "--pause", "0-8", "--seed",
+                     "7", "--width", "320", "--height", "240", "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert [s["gesture"] for s in report["sequence"]] == ["right", "stop", "left"]
+    assert cli.main(["pipeline", str(out), "-o", str(tmp_path / "p"), "--spotting",
+                     "continuous", "--json", "--quiet"]) == 0
+    result = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert [g["name"] for g in result["gestures"]] == ["right", "stop", "left"]
+    assert (result["truth"]["correct"], result["truth"]["false"]) == (3, 0)
+    assert cli.main(["pipeline", str(out), "-o", str(tmp_path / "t"), "--json",
+                     "--quiet"]) == 0
+    thesis = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert thesis["truth"]["correct"] < 3
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--sequence", "right,wave"], "--sequence: names must be among"),
+    (["--sequence", "right", "--gesture", "stop"], "give either --gesture NAME or --sequence"),
+    ([], "give either --gesture NAME or --sequence"),
+    (["--sequence", "right,stop", "--pause", "9-3"], "--pause must satisfy"),
+])
+def test_render_sequence_bad_input(tmp_path, capsys, argv, message):
+    assert cli.main(["render", *argv, "-o", str(tmp_path / "x"), "--width", "160",
+                     "--height", "120"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()

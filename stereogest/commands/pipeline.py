@@ -18,7 +18,8 @@ import time
 
 from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, board_results,
                                          load_board_models, parse_frames, progress_printer,
-                                         recognised_gestures, stream_results, warn_if_empty,
+                                         recognised_gestures, sequence_score, stream_results,
+                                         warn_if_empty,
                                          write_outputs)
 
 NAME = "pipeline"
@@ -104,10 +105,10 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
                                     rectification=rectification)
     seconds = time.perf_counter() - start
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
-    if args.spotting == "continuous":
-        gestures = recognised_gestures(stream_results(models, trajectory, clip.width))
-    else:
-        gestures = recognised_gestures(board_results(models, trajectory))
+    results = stream_results(models, trajectory, clip.width) \
+        if args.spotting == "continuous" else board_results(models, trajectory)
+    gestures = recognised_gestures(results)
+    truth = sequence_score(results, clip.sequence) if clip.sequence is not None else None
     recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
         else (None, None)
     summary = write_outputs(outdir, clip, trajectory, kept, params, seconds,
@@ -118,8 +119,11 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
           + (f" (NXT telegram {telegram})" if telegram else "")
           + (f"; the clip is labelled {clip.gesture}" if clip.gesture else ""))
     print(f"trajectory and stage pictures in {args.output}")
+    if truth is not None:
+        print(f"against the sequence's truth: {truth['correct']} of {truth['true']} gestures "
+              f"named right, {truth['false']} false command(s)")
     if args.json:
         print(json.dumps({"clip": str(args.clip), **{key: summary[key] for key in (
             "gesture", "frames", "gesture_frames", "symbols", "recognised", "telegram",
-            "gestures", "seconds")}}))
+            "gestures", "seconds")}, **({"truth": truth} if truth is not None else {})}))
     return 0

@@ -1,4 +1,5 @@
-"""Render a synthetic stereo clip of one gesture.
+"""Render a synthetic stereo clip of one gesture (--gesture), or of several one
+after another (--sequence, with --pause frames of rest between them).
 
 A person in front of a textured wall performs one of the seven gestures of the
 thesis (Fig. 16) with a skin-coloured, textured hand held in front of the chest.
@@ -20,13 +21,18 @@ HELP = "render a synthetic stereo clip of one gesture"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     # default=SUPPRESS keeps "(default: None)" out of the help of required options.
-    parser.add_argument("--gesture", required=True, choices=GESTURE_NAMES,
-                        default=argparse.SUPPRESS,
+    parser.add_argument("--gesture", choices=GESTURE_NAMES, default=None,
                         help="gesture the hand performs (thesis Fig. 16): forward = up and "
                              "back, back = down and back, right = towards the image's left "
                              "edge and back, left = towards its right edge and back, "
                              "rotate-right / rotate-left = a loop on the image's left / "
                              "right side, stop = a downward-pointing triangle")
+    parser.add_argument("--sequence", metavar="NAME[,NAME...]", default=None,
+                        help="instead of --gesture: these gestures one after another in "
+                             "one clip (the truth names every gesture's frame span)")
+    parser.add_argument("--pause", metavar="MIN-MAX", default="0-15",
+                        help="--sequence: frames of rest between two gestures, drawn from "
+                             "the seed (0 = none: the hand flows into the next; default 0-15)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED,
                         help="random seed (>= 0): the person and room depend on it, the "
                              "timing, amplitude and start position on it and the gesture")
@@ -50,18 +56,39 @@ def run(args: argparse.Namespace) -> int:
     from sim.render import render_clip
     from stereogest.commands import check_clip_output
 
+    from recognition.streams import check_range
+    from sim.render import MAX_SEGMENT_FRAMES, render_sequence
+    if (args.gesture is None) == (args.sequence is None):
+        raise ValueError("give either --gesture NAME or --sequence NAME[,NAME...]")
+    if args.sequence is not None:
+        names = [n.strip() for n in args.sequence.split(",")]
+        unknown = [n for n in names if n not in GESTURE_NAMES]
+        if unknown or not names:
+            raise ValueError(f"--sequence: names must be among {', '.join(GESTURE_NAMES)}, "
+                             f"got {args.sequence!r}")
+        pause = check_range("--pause", args.pause, 0, MAX_SEGMENT_FRAMES)
     difficulties = scene_difficulties(args)
     check_clip_output(args.output)
-    clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps,
-                       difficulties=difficulties)
+    if args.sequence is not None:
+        clip = render_sequence(names, args.seed, args.width, args.height, pause=pause,
+                               fps=args.fps, difficulties=difficulties)
+    else:
+        clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps,
+                           difficulties=difficulties)
     path = save_clip(clip, args.output)
     first, last = clip.motion_frames
-    print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
+    what = args.gesture if args.sequence is None else \
+        ", ".join(f"{g} {a}-{b}" for g, a, b in clip.sequence)
+    print(f"rendered {what} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {first}-{last} "
           f"({last - first + 1} frames), written to {path}")
     if args.json:
         import json
-        print(json.dumps({"output": str(path), "gesture": args.gesture, "seed": args.seed,
-                          "frames": clip.frames, "width": clip.width, "height": clip.height,
-                          "fps": clip.fps, "motion_frames": [first, last]}))
+        report = {"output": str(path), "gesture": clip.gesture, "seed": args.seed,
+                  "frames": clip.frames, "width": clip.width, "height": clip.height,
+                  "fps": clip.fps, "motion_frames": [first, last]}
+        if clip.sequence is not None:
+            report["sequence"] = [{"gesture": g, "motion_frames": [a, b]}
+                                  for g, a, b in clip.sequence]
+        print(json.dumps(report))
     return 0
