@@ -19,7 +19,8 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.matching import MAX_DISPARITY_RANGE
 
-from ._util import check_geometry, check_int, check_odd_window, delay, register_input
+from ._util import check_geometry, check_int, check_odd_window, delay, register_input, \
+    replicate
 from .column_sum import ColumnSum, column_sum_memory_bits, column_sum_timing
 from .hamming import HammingDistances, hamming_cycles
 from .raster_position import RasterPosition
@@ -29,6 +30,10 @@ from .window_sum import WindowSum, window_sum_bits, window_sum_memory_bits, \
 
 __all__ = ["SumOfHammingDistances", "shd_timing", "shd_cost_bits", "shd_memory_bits",
            "shd_stage", "SHD_STAGES"]
+
+#: Disparities whose Hamming distances take the left code from one register
+#: (each bank holds its own copies of the left code).
+CODES_PER_COPY = 8
 
 #: The parts of :class:`SumOfHammingDistances` by name (:func:`shd_stage`): the
 #: column sums, the window sums and one of its two banks of ``max_disparity``
@@ -76,7 +81,8 @@ def shd_stage(name: str, width: int, height: int, *, census_bits: int, hamming_w
         return WindowSum(width, height, hamming_window=hamming_window,
                          max_disparity=max_disparity, max_term=hamming_window * census_bits)
     if name == "hamming":
-        return HammingDistances(census_bits, codes=max_disparity)
+        return HammingDistances(census_bits, codes=max_disparity,
+                                a_copies=-(-max_disparity // CODES_PER_COPY))
     raise ValueError(f"stage must be one of {', '.join(SHD_STAGES)}, got {name!r}")
 
 
@@ -159,8 +165,9 @@ class SumOfHammingDistances(wiring.Component):
         m.submodules.windows = wins = self.stage("windows")
         lh = hamming_cycles(cb)
         has_partner = delay(m, pos.thermometer(nd, "partner"), lh, "partner")  # bit d: x >= d
-        for win, left, right, field in ((1, p.left, p.right, cols.i_stream.payload.enter),
-                                        (2, p.left2, p.right2, cols.i_stream.payload.leave)):
+        for win, left, right, field, field_name in (
+                (1, p.left, p.right, cols.i_stream.payload.enter, "left"),
+                (2, p.left2, p.right2, cols.i_stream.payload.leave, "left2")):
             # one bank of D distances for the entering rows (V1), one for the leaving (V2)
             ham = self.stage("hamming")
             m.submodules[f"ham{win}"] = ham
@@ -172,7 +179,15 @@ class SumOfHammingDistances(wiring.Component):
                         m.d.sync += line.eq(Cat(right[j], line[:-1]))
                     plane = Cat(right[j], line)
                 m.d.comb += ham.b[j].eq(plane)
-            m.d.comb += ham.a.eq(left)
+            # the left code registered once per CODES_PER_COPY disparities
+            # (from the input, like `p`: no extra cycle)
+            if ham.a_copies == 1:
+                m.d.comb += ham.a.eq(left)
+            else:
+                for i, copy in enumerate(replicate(m, getattr(self.i_stream.payload, field_name),
+                                                   ham.a_copies, f"left{win}_copy",
+                                                   reset_less=True)):
+                    m.d.comb += ham.a[i].eq(copy)
             for d in range(nd):
                 m.d.comb += field[d].eq(Mux(has_partner[d], ham.distance[d], self.no_match_cost))
         m.d.comb += [

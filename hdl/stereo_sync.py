@@ -51,13 +51,18 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_power_of_two
 
-from ._util import check_domain, check_geometry, check_int
+from ._util import KEEP_REGISTER, check_domain, check_geometry, check_int
 from .camera_capture import capture_word_layout
 from .dual_clock_fifo import DualClockFIFO
 
 __all__ = ["StereoSynchronizer", "pixel_pair_layout", "check_fifo"]
 
 FIFO_DEPTH_RANGE = (16, 65536)
+
+#: The groups of registers the pairing decision steers, each decided from its
+#: own copies of the state flags: each skid buffer, the output register, the
+#: state and position, the frame/fault/stale counters.
+DECISION_GROUPS = ("l_skid", "r_skid", "output", "state", "counters")
 FLUSH_MAX = 1 << 20
 
 
@@ -163,8 +168,14 @@ class StereoSynchronizer(wiring.Component):
         # The state, one register per state, and the position of the next
         # pixel pair, as registered flags: the decision below reads registers
         # only (no counter comparison, no state decoding on its way).
-        waiting, framing, flushing = (Signal(name=n, init=i) for n, i in (
-            ("waiting", 1), ("framing", 0), ("flushing", 0)))
+        # `waiting` and `framing` are kept in one copy per group of registers
+        # the decision steers (DECISION_GROUPS), each group decided from its
+        # own copies: no decision net reaches all of them (routed on an ECP5,
+        # the pair decision to ~150 registers: 3.6 + 2.2 ns of routing).
+        waiting = [Signal(name=f"waiting_{g}", init=1, attrs=KEEP_REGISTER)
+                   for g in DECISION_GROUPS]
+        framing = [Signal(name=f"framing_{g}", attrs=KEEP_REGISTER) for g in DECISION_GROUPS]
+        flushing = Signal(name="flushing")
         x = Signal(range(w))
         pixels_left = Signal(range(w * h))
         at_x0, at_first, at_last, x_last = (Signal(name=n) for n in (
@@ -194,7 +205,7 @@ class StereoSynchronizer(wiring.Component):
                 "ok": Signal(name=f"head_ok_{side}"),
                 "spare_valid": Signal(name=f"spare_valid_{side}"),
                 "spare": Signal(layout, name=f"spare_{side}", reset_less=True),
-                "take": Signal(name=f"take_{side}"), "pop": Signal(name=f"pop_{side}"),
+                "take": Signal(name=f"take_{side}"),
                 "fifo": fifo,
             }
             m.d.comb += [skid["take"].eq(fifo.r_rdy & ~skid["spare_valid"]),
@@ -202,35 +213,46 @@ class StereoSynchronizer(wiring.Component):
             sides.append(skid)
         left, right = sides
 
-        # ---- the decision ----
+        # ---- the decision, once per group ----
         sof_l = left["valid"] & left["head"].sof
         sof_r = right["valid"] & right["head"].sof
-        # a side's head sof is stale when its FIFO is full or far ahead of the
-        # other, whose head is not yet a sof: that frame has no partner
-        stale_l = waiting & sof_l & ~sof_r & (full_l | ahead_l)
-        stale_r = waiting & sof_r & ~sof_l & (full_r | ahead_r)
-        start = Signal()
-        m.d.comb += start.eq(waiting & sof_l & sof_r & filled)
         # a head whose markers do not fit (a sof too early, a sol too early or
         # missing), or a full FIFO facing an empty one (that side overruns on its
         # next word), aborts the frame
         bad = ((left["valid"] & ~left["ok"]) | (right["valid"] & ~right["ok"])
                | (full_l & ~right["valid"]) | (full_r & ~left["valid"]))
-        pair, abort = Signal(), Signal()
-        m.d.comb += [pair.eq(framing & left["valid"] & right["valid"] & ~bad),
-                     abort.eq(framing & bad)]
-        for skid, stale in ((left, stale_l), (right, stale_r)):
-            m.d.comb += skid["pop"].eq(
-                pair | (waiting & skid["valid"] & ~skid["head"].sof) | stale)
+
+        def decide(g):
+            """The decision from group ``g``'s copies of the state."""
+            wait, frame = waiting[g], framing[g]
+            # a side's head sof is stale when its FIFO is full or far ahead of
+            # the other, whose head is not yet a sof: that frame has no partner
+            d = {"stale_l": wait & sof_l & ~sof_r & (full_l | ahead_l),
+                 "stale_r": wait & sof_r & ~sof_l & (full_r | ahead_r),
+                 "start": wait & sof_l & sof_r & filled,
+                 "pair": frame & left["valid"] & right["valid"] & ~bad,
+                 "abort": frame & bad}
+            for name, value in list(d.items()):
+                d[name] = Signal(name=f"{name}_{g}")
+                m.d.comb += d[name].eq(value)
+            for skid, side in ((left, "l"), (right, "r")):
+                d[f"pop_{side}"] = Signal(name=f"pop_{side}_{g}")
+                m.d.comb += d[f"pop_{side}"].eq(
+                    d["pair"] | (wait & skid["valid"] & ~skid["head"].sof) | d[f"stale_{side}"])
+            return d
+
+        decisions = {g: decide(i) for i, g in enumerate(DECISION_GROUPS)}
 
         # ---- skid buffers and their head_ok flags ----
         def fits(word, sol, sof):
             return (word.sol == sol) & (word.sof == sof)
 
-        for skid in sides:
+        for skid, side in ((left, "l"), (right, "r")):
+            d = decisions[f"{side}_skid"]
+            start, pair, pop = d["start"], d["pair"], d[f"pop_{side}"]
             head, spare, fifo = skid["head"], skid["spare"], skid["fifo"]
             incoming = layout(fifo.r_data)
-            with m.If(skid["pop"]):
+            with m.If(pop):
                 with m.If(skid["spare_valid"]):
                     m.d.sync += [head.eq(spare), skid["spare_valid"].eq(0)]
                 with m.Else():
@@ -248,7 +270,7 @@ class StereoSynchronizer(wiring.Component):
                 m.d.sync += skid["ok"].eq(fits(head, 1, 1))
             with m.Elif(pair):
                 m.d.sync += skid["ok"].eq(fits(popped, x_last, 0))
-            with m.Elif(skid["pop"]):
+            with m.Elif(pop):
                 m.d.sync += skid["ok"].eq(fits(popped, at_x0, at_first))
             with m.Elif(~skid["valid"]):
                 m.d.sync += skid["ok"].eq(fits(incoming, at_x0, at_first))
@@ -257,32 +279,41 @@ class StereoSynchronizer(wiring.Component):
         hl, hr = left["head"], right["head"]
         out = self.o_stream
         pay = out.payload
-        m.d.sync += [out.valid.eq(pair | flushing), pay.eq(0)]
-        with m.If(stale_l | stale_r):
-            m.d.sync += self.stale.eq(self.stale + 1)
-        with m.If(start):
-            m.d.sync += [waiting.eq(0), framing.eq(1),
-                         x.eq(0), pixels_left.eq(w * h - 1), at_x0.eq(1), x_last.eq(0),
-                         at_first.eq(1), at_last.eq(w * h == 1)]
-        with m.If(abort):
-            # abort: no padding, no flush; WAIT drops the damaged words and
-            # keeps a head sof as the next frame's start
-            m.d.sync += [self.faults.eq(self.faults + 1), framing.eq(0), waiting.eq(1)]
-        with m.If(pair):
+        d = decisions["output"]
+        m.d.sync += [out.valid.eq(d["pair"] | flushing), pay.eq(0)]
+        with m.If(d["pair"]):
             m.d.sync += [
                 pay.first.eq(at_first),
                 pay.left.luma.eq(hl.luma), pay.left.chroma.eq(hl.chroma),
                 pay.right.luma.eq(hr.luma), pay.right.chroma.eq(hr.chroma),
+            ]
+        d = decisions["counters"]
+        with m.If(d["stale_l"] | d["stale_r"]):
+            m.d.sync += self.stale.eq(self.stale + 1)
+        with m.If(d["abort"]):
+            m.d.sync += self.faults.eq(self.faults + 1)
+        with m.If(d["pair"] & at_last):
+            m.d.sync += self.frames.eq(self.frames + 1)
+        d = decisions["state"]
+        with m.If(d["start"]):
+            m.d.sync += [[c.eq(0) for c in waiting], [c.eq(1) for c in framing],
+                         x.eq(0), pixels_left.eq(w * h - 1), at_x0.eq(1), x_last.eq(0),
+                         at_first.eq(1), at_last.eq(w * h == 1)]
+        with m.If(d["abort"]):
+            # abort: no padding, no flush; WAIT drops the damaged words and
+            # keeps a head sof as the next frame's start
+            m.d.sync += [[c.eq(0) for c in framing], [c.eq(1) for c in waiting]]
+        with m.If(d["pair"]):
+            m.d.sync += [
                 x.eq(Mux(x_last, 0, x + 1)), at_x0.eq(x_last), x_last.eq(x == w - 2),
                 at_first.eq(0), pixels_left.eq(pixels_left - 1),
                 at_last.eq(pixels_left == 1),
             ]
             with m.If(at_last):
-                m.d.sync += [self.frames.eq(self.frames + 1), flush_left.eq(self.flush),
-                             framing.eq(0)]
-                m.d.sync += (flushing.eq(1) if self.flush else waiting.eq(1))
+                m.d.sync += [flush_left.eq(self.flush), [c.eq(0) for c in framing]]
+                m.d.sync += (flushing.eq(1) if self.flush else [c.eq(1) for c in waiting])
         with m.If(flushing):
             m.d.sync += flush_left.eq(flush_left - 1)
             with m.If(flush_left == 1):
-                m.d.sync += [flushing.eq(0), waiting.eq(1)]
+                m.d.sync += [flushing.eq(0), [c.eq(1) for c in waiting]]
         return m
