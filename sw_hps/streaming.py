@@ -215,10 +215,16 @@ class StreamingApp:
             self._stop = False
         return named
 
-    def shutdown(self) -> None:
-        """Name what is pending, clear GO and close the link (errors logged)."""
+    def end_of_stream(self) -> list[SpottedGesture]:
+        """The source ended (no more frames will come): name what is pending."""
+        before = len(self.results)
         for detection in self.spotter.flush():
             self._send(detection)
+        return self.results[before:]
+
+    def shutdown(self) -> None:
+        """Name what is pending, clear GO and close the link (errors logged)."""
+        self.end_of_stream()
         try:
             self.fifo.stop()
         except Exception as exc:

@@ -312,6 +312,38 @@ def test_demo_fails_when_its_gesture_is_not_recognised(gesture, recognised, name
     assert gesture_failure(gesture, recognised, names) == failure
 
 
+def test_demo_sequence_continuous(tmp_path, capsys):
+    """`demo --sequence ... --spotting continuous` (model backend): every
+    rendered gesture named once, scored against the truth; the thesis'
+    spotting on the same back-to-back clip fails the demo."""
+    for spotting, expected in (("continuous", 0), ("thesis", 1)):
+        status, stdout, err = run(capsys, "demo", "--backend", "model", "--sequence",
+                                  "right,stop", "--pause", "0-5", "--spotting", spotting,
+                                  "--width", "320", "--height", "240",
+                                  "-o", tmp_path / spotting, "--quiet")
+        summary = json.loads(stdout.strip().splitlines()[-1])
+        assert status == expected, err
+        if expected == 0:
+            assert [g["name"] for g in summary["gestures"]] == ["right", "stop"]
+            assert (summary["truth"]["correct"], summary["truth"]["false"]) == (2, 0)
+        else:
+            assert err.startswith("stereogest demo: error: the board application named ")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--sequence", "right,wave"], "--sequence: names must be among"),
+    (["--sequence", "right", "--clip", "x"], "--sequence renders a clip"),
+    (["--sequence", "right", "--pause", "4-1"], "--pause must satisfy"),
+    (["--spotting", "continuous", "--model", "sw_hps/models/gestures7.json"],
+     "continuous spotting needs a discrete model file"),
+])
+def test_demo_sequence_bad_input(tmp_path, capsys, argv, message):
+    status, stdout, err = run(capsys, "demo", "--backend", "model", "-o", tmp_path / "d",
+                              *argv)
+    assert status == 2 and err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "d").exists()
+
+
 @pytest.mark.parametrize("value", ["-2", "10001"])
 def test_demo_pre_rest_out_of_range_is_one_line_and_writes_nothing(tmp_path, capsys, value):
     out = tmp_path / "demo"

@@ -74,6 +74,21 @@ class EndToEndResult:
         return self.uart_bytes == self.telegrams
 
 
+class _Spotted:
+    """A :class:`sw_hps.streaming.SpottedGesture` as the thesis application's
+    results read (``recognised``, ``class_name``, ``telegram``, ``to_dict``)."""
+
+    recognised = True
+
+    def __init__(self, spotted):
+        self.spotted = spotted
+        self.class_name, self.telegram = spotted.class_name, spotted.telegram
+
+    def to_dict(self) -> dict:
+        return dict(self.spotted.to_dict(), outcome="recognised",
+                    class_name=self.spotted.class_name)
+
+
 def hardware_progress(frame: int, frames: int, cycles: int, seconds: float) -> str:
     """One progress line of a hardware run: frames done, simulated cycles per
     second of wall time and the time left at that rate."""
@@ -121,7 +136,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    last_stages: FrameStages | None, params: PipelineParams = PipelineParams(),
                    *, stage: str = "opening", clocks: Clocks = Clocks(),
                    poll_interval: float = 0.005, progress=None, exe=None,
-                   rectification=None, vga_scale: int | None = None) -> EndToEndResult:
+                   rectification=None, vga_scale: int | None = None,
+                   spotting: str = "thesis") -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
     Parameters
@@ -144,6 +160,12 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     vga_scale : int in [1, 2], optional
         Resolution of the core's VGA frame buffer (None:
         :data:`soc.frame_buffer.VGA_SCALE`); the model's picture is shown alike.
+    spotting : "thesis" or "continuous"
+        The application's spotting (``python -m sw_hps --spotting``):
+        continuous runs :class:`sw_hps.streaming.StreamingApp` on the FIFO's
+        streaming mode (every frame's record popped, compared word for word
+        with :func:`sw_hps.simulated.streaming_words`), and names what is
+        pending when the cameras have stopped and the FIFO is empty.
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
     from hdl.lrcc import disparity_bits
@@ -162,7 +184,14 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
     height, width = np.shape(left_frames)[1], np.shape(left_frames)[2] // 2
     timing = pipeline_timing(width, height, params, rectification)
     drain = timing.record_cycles + 8 * width
-    expected = [(int(x), int(y)) for (x, y), f in zip(trajectory.smoothed, trajectory.flag) if f]
+    if spotting not in ("thesis", "continuous"):
+        raise ValueError(f"spotting must be 'thesis' or 'continuous', got {spotting!r}")
+    if spotting == "continuous":
+        from sw_hps.simulated import streaming_words
+        expected = streaming_words(trajectory)
+    else:
+        expected = [(int(x), int(y)) for (x, y), f in zip(trajectory.smoothed, trajectory.flag)
+                    if f]
     start = time.perf_counter()
     with VerilatorSystem(left_frames, right_frames, params, clocks=clocks,
                          stage=VIDEO_STAGES.index(stage),
@@ -171,10 +200,15 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         bus = SystemBus(system)
         # The app's timeouts run on the hardware's simulated time (a simulated frame
         # takes far longer than 33 ms of wall time), its frame is the clip's.
-        app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
-                         sleep=bus.sleep, poll_interval=poll_interval,
-                         clock=lambda: system.cycles / clocks.sync_hz,
-                         frame_width=width, frame_height=height)
+        if spotting == "continuous":
+            from sw_hps.streaming import StreamingApp
+            app = StreamingApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
+                               sleep=bus.sleep, poll_interval=poll_interval, frame_width=width)
+        else:
+            app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
+                             sleep=bus.sleep, poll_interval=poll_interval,
+                             clock=lambda: system.cycles / clocks.sync_hz,
+                             frame_width=width, frame_height=height)
         done_at = [None]
         shown = [0]
         started = time.perf_counter()     # after the build: the rate is the simulation's
@@ -189,11 +223,17 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                 return False
             if done_at[0] is None:
                 done_at[0] = system.cycles
+            if spotting == "continuous":
+                return (system.cycles - done_at[0] >= drain
+                        and not bus.last_control & CTRL_FIFO_DATA)
             idle = (bus.last_control & CTRL_NO_GESTURE) and not (bus.last_control & CTRL_FIFO_DATA)
             return (system.cycles - done_at[0] >= drain and app.state is State.WAIT
                     and bool(idle))
 
         results = app.run(max_iterations=200 * frames + 10_000, until=finished)
+        if spotting == "continuous":            # the cameras stopped: name what is pending
+            results = [_Spotted(r) for r in results + app.end_of_stream()]
+            system.advance(0.002)               # the last telegram leaves the UART
         edges = system.uart_edges()
         vga = system.vga_frame()
         stats = system.close()
@@ -219,11 +259,13 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
 
 def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
                     keep=(), threads=None, model_progress=None, progress=None, exe=None,
-                    rectification=None, vga_scale: int | None = None):
+                    rectification=None, vga_scale: int | None = None,
+                    spotting: str = "thesis"):
     """A rendered clip end to end: the golden model over every frame (keeping the
     stages of the frames in ``keep`` and of the last one), the hold-still
-    extension, then :func:`run_end_to_end`. Returns (model trajectory of the
-    clip as played, kept stages, repeats of the last frame, EndToEndResult)."""
+    extension, then :func:`run_end_to_end` (with ``spotting``). Returns (model
+    trajectory of the clip as played, kept stages, repeats of the last frame,
+    EndToEndResult)."""
     from sim.model.pipeline import run_clip
     chosen = set(keep) | {clip.frames - 1}
     trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
@@ -232,5 +274,6 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
     left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
                             stage=stage, progress=progress, exe=exe,
-                            rectification=rectification, vga_scale=vga_scale)
+                            rectification=rectification, vga_scale=vga_scale,
+                            spotting=spotting)
     return played, kept, extra, result

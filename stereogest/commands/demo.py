@@ -38,6 +38,16 @@ def add_arguments(p):
     from sim.gesture_shapes import GESTURE_NAMES
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
+    p.add_argument("--sequence", metavar="NAME[,NAME...]", default=None,
+                   help="render these gestures one after another instead of --gesture "
+                        "(with --pause frames of rest between them); the demo fails unless "
+                        "every one is named, once, and nothing else")
+    p.add_argument("--pause", metavar="MIN-MAX", default="0-15",
+                   help="--sequence: frames of rest between two gestures (default 0-15)")
+    p.add_argument("--spotting", choices=("thesis", "continuous"), default="thesis",
+                   help="the board application's spotting (python -m sw_hps --spotting): "
+                        "thesis (default) or continuous (the FIFO's streaming mode; the "
+                        "model shipped for it unless --model)")
     p.add_argument("--clip", metavar="CLIP", default=None,
                    help="run this clip (from 'stereogest render' or 'stereogest clip', your "
                         "own footage) instead of rendering one; --gesture, --seed, "
@@ -136,8 +146,18 @@ def run(args) -> int:
     if not -1 <= args.pre_rest <= MAX_SEGMENT_FRAMES:
         raise ValueError(f"--pre-rest must be in -1..{MAX_SEGMENT_FRAMES}, got "
                          f"{args.pre_rest}")
+    if args.sequence is not None:
+        from recognition.streams import check_range
+        from sim.gesture_shapes import GESTURE_NAMES
+        if args.clip is not None:
+            raise ValueError("--sequence renders a clip; it does not apply with --clip")
+        args.sequence = [n.strip() for n in args.sequence.split(",")]
+        if not all(n in GESTURE_NAMES for n in args.sequence):
+            raise ValueError(f"--sequence: names must be among {', '.join(GESTURE_NAMES)}, "
+                             f"got {','.join(args.sequence)!r}")
+        args.pause = check_range("--pause", args.pause, 0, MAX_SEGMENT_FRAMES)
     say = _say(args.quiet)
-    models = load_board_models(args.model)
+    models = load_board_models(args.model, args.spotting)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
@@ -158,7 +178,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
     from sim.render import render_clip
     from stereogest.pipeline_outputs import (STALE, board_results, gesture_entries,
                                              parse_frames, progress_printer,
-                                             recognised_gestures, write_outputs)
+                                             recognised_gestures, sequence_score,
+                                             stream_results, write_outputs)
 
     start = time.perf_counter()
     if args.clip is not None:
@@ -167,9 +188,17 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         print(f"clip {args.clip}: {clip.frames} frames of {clip.width}x{clip.height}"
               + (f", labelled {clip.gesture}" if clip.gesture else "") + motion)
     else:
-        clip = render_clip(args.gesture, args.seed, args.width, args.height,
-                           n_pre_rest=None if args.pre_rest < 0 else args.pre_rest,
-                           difficulties=args.difficulties)
+        if args.sequence is not None:
+            from sim.render import render_sequence
+            clip = render_sequence(args.sequence, args.seed, args.width, args.height,
+                                   pause=args.pause, difficulties=args.difficulties)
+            what = ", ".join(f"{g} {a}-{b}" for g, a, b in clip.sequence)
+        else:
+            clip = render_clip(args.gesture, args.seed, args.width, args.height,
+                               n_pre_rest=None if args.pre_rest < 0 else args.pre_rest,
+                               difficulties=args.difficulties)
+            what = f"{args.gesture}, motion in frames {clip.motion_frames[0]}-" \
+                f"{clip.motion_frames[1]}"
         if rectification is not None:
             # what the calibrated cameras would see of the rendered (aligned) view
             import dataclasses
@@ -179,9 +208,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
             clip = dataclasses.replace(clip, left=camera_frames(clip.left, calib, "left"),
                                        right=camera_frames(clip.right, calib, "right"))
         clip_dir = save_clip(clip, out / "clip")
-        print(f"rendered {args.gesture} (seed {args.seed}): {clip.frames} frames of "
-              f"{clip.width}x{clip.height}, motion in frames {clip.motion_frames[0]}-"
-              f"{clip.motion_frames[1]} -> {clip_dir}")
+        print(f"rendered {what} (seed {args.seed}): {clip.frames} frames of "
+              f"{clip.width}x{clip.height} -> {clip_dir}")
     print(f"spotting: Tm = {params.spot_threshold} px (thesis 30 at 640 wide, scaled to the "
           f"width), end after {params.spot_hold} still frames")
 
@@ -196,7 +224,7 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         trajectory, kept, extra, result = clip_end_to_end(
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
             model_progress=progress_printer(args.quiet), progress=say,
-            rectification=rectification, vga_scale=args.vga_scale)
+            rectification=rectification, vga_scale=args.vga_scale, spotting=args.spotting)
     pictures = out / "pipeline"
     for pattern in STALE:                # a reused folder: no old picture passes for new
         for old in pictures.glob(pattern):
@@ -214,8 +242,12 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               "height": clip.height, "backend": args.backend,
               "flagged": int(trajectory.flag.sum()), "symbols": summary["symbols"]}
 
+    continuous = args.spotting == "continuous"
+    model_results = stream_results(models, trajectory, clip.width) if continuous \
+        else board_results(models, trajectory)
     if args.backend == "model":
-        gestures = recognised_gestures(board_results(models, trajectory))
+        entries = model_results
+        gestures = recognised_gestures(entries)
         recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
             else (None, None)
         print(f"board application (simulated FIFO): recognised {recognised or 'nothing'}"
@@ -226,7 +258,16 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                   f"hand still for {extra} more frames (trajectory.csv includes them)")
         write_png(out / "vga.png", result.vga, bits=8)
         recognised = result.recognised
-        gestures = recognised_gestures(gesture_entries(result.results, trajectory.flag))
+        if continuous:
+            entries = [dict(r, outcome="recognised") for r in result.results]
+        else:
+            entries = gesture_entries(result.results, trajectory.flag)
+        gestures = recognised_gestures(entries)
+        # the application on the hardware names what it names on the model's records
+        agree = gestures == recognised_gestures(model_results)
+        print("board application on the hardware: "
+              + ("the same gestures and spans as on the golden model's records" if agree
+                 else "DIFFERENT gestures from the golden model's records"))
         uart_hex = result.uart_bytes.hex(" ")
         cps = result.stats.get("cycles_per_second", 0)
         print(f"hardware: {result.cycles:,} pipeline cycles in {result.seconds:.1f} s "
@@ -254,17 +295,29 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                       vga_scale=args.vga_scale,
                       hardware_seconds=round(result.seconds, 1), cycles=result.cycles,
                       held_frames=extra, recognised_all=result.recognised_all,
-                      uart=result.uart_bytes.hex(" "))
-        if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram):
+                      uart=result.uart_bytes.hex(" "), gestures_match_model=agree)
+        if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram
+                and agree):
             report.update(recognised=recognised, telegram=telegram, gestures=gestures)
             print(json.dumps(report))
             print("stereogest demo: error: the hardware and the golden model disagree "
                   "(see above)", file=sys.stderr)
             return 1
     report.update(recognised=recognised, telegram=telegram, gestures=gestures,
-                  seconds=round(time.perf_counter() - start, 1))
+                  spotting=args.spotting, seconds=round(time.perf_counter() - start, 1))
+    failure = None
+    if clip.sequence is not None:
+        score = sequence_score(entries, clip.sequence)
+        report["truth"] = score
+        print(f"against the sequence: {score['correct']} of {score['true']} gestures named "
+              f"right, {score['false']} false command(s)")
+        if score["correct"] < score["true"] or score["false"]:
+            failure = (f"the board application named {score['correct']} of the "
+                       f"{score['true']} rendered gestures right and sent {score['false']} "
+                       f"false command(s)")
     print(json.dumps(report))
-    failure = gesture_failure(clip.gesture, recognised, models.class_names)
+    if clip.sequence is None:
+        failure = gesture_failure(clip.gesture, recognised, models.class_names)
     if failure is not None:     # a demo that misses its own gesture has failed
         print(f"stereogest demo: error: {failure}", file=sys.stderr)
         return 1
