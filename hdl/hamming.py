@@ -109,7 +109,10 @@ class HammingDistances(wiring.Component):
         n = self.codes
         copies = [self.a] if self.a_copies == 1 else list(self.a)
         share = -(-n // self.a_copies)
-        x = [self.b[j] ^ Cat(*(copies[k // share][j] for k in range(n)))
+        # each copy's bit replicated over its codes (a word per copy, not a bit
+        # per code: a simulator evaluates a few words)
+        x = [Cat(*(self.b[j][lo:lo + share] ^ copy[j].replicate(len(self.b[j][lo:lo + share]))
+                   for lo, copy in zip(range(0, n, share), copies)))
              for j in range(self.bits)]
 
         def register(number, name):
