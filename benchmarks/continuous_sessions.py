@@ -1,0 +1,102 @@
+"""Continuous spotting on rendered sessions (issue 28): ``--sessions`` clips of
+``--per-session`` gestures in a random order, one after another with pauses
+of 0-15 frames (:func:`sim.render.render_sequence`; scene seeds 500 onwards,
+people the shipped model's corpus and the defaults' choice never saw), through
+the golden model of the whole pipeline and the board's continuous spotting
+(:func:`stereogest.pipeline_outputs.stream_results`, the code ``python -m
+sw_hps --spotting continuous`` runs on each record), scored against each
+clip's truth (:func:`stereogest.pipeline_outputs.sequence_score`).
+
+Run: ``python benchmarks/continuous_sessions.py [--sessions 10] [--per-session 8]
+[--width 320 --height 240] [--model MODEL.json] [--json FILE]``. Prints the
+figures (and CPU seconds); no distractor motion yet (not rendered).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sim.gesture_shapes import GESTURE_NAMES
+from sim.model.pipeline import PipelineParams, run_clip
+from sim.render import render_sequence
+from stereogest.pipeline_outputs import load_board_models, sequence_score, stream_results
+
+ROOT = Path(__file__).resolve().parents[1]
+FIRST_SEED = 500
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sessions", type=int, default=10)
+    ap.add_argument("--per-session", type=int, default=8)
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--model", default=None, help="default: sw_hps/models/continuous7.json")
+    ap.add_argument("--json", default=str(ROOT / "build" / "continuous_sessions.json"))
+    args = ap.parse_args(argv)
+    for option, value, lo, hi in (("--sessions", args.sessions, 1, 1000),
+                                  ("--per-session", args.per_session, 1, 100)):
+        if not lo <= value <= hi:
+            ap.error(f"{option} must be in {lo}..{hi}, got {value}")
+    models = load_board_models(args.model, "continuous")
+    params = PipelineParams.for_frame(args.width)
+    totals = dict(true=0, named=0, correct=0, false=0)
+    latencies, between, frames, sessions = [], 0, 0, []
+    cpu = {"render": 0.0, "model": 0.0, "spotting": 0.0}
+    for k in range(args.sessions):
+        seed = FIRST_SEED + k
+        rng = np.random.default_rng(seed)
+        names = [str(n) for n in rng.choice(GESTURE_NAMES, args.per_session)]
+        t = time.process_time()
+        clip = render_sequence(names, seed, args.width, args.height, pause=(0, 15))
+        cpu["render"] += time.process_time() - t
+        t = time.process_time()
+        trajectory, _ = run_clip(clip.left, clip.right, params)
+        cpu["model"] += time.process_time() - t
+        t = time.process_time()
+        results = stream_results(models, trajectory, args.width)
+        cpu["spotting"] += time.process_time() - t
+        score = sequence_score(results, clip.sequence)
+        for key in totals:
+            totals[key] += score[key]
+        latencies += score["latencies"]
+        inside = sum(b - a + 1 for _, a, b in clip.sequence)
+        between += clip.frames - inside
+        frames += clip.frames
+        sessions.append({"seed": seed, "gestures": names, "frames": clip.frames,
+                         **{key: score[key] for key in totals}})
+        print(f"session {k + 1}/{args.sessions} (seed {seed}): {score['correct']} of "
+              f"{score['true']} right, {score['false']} false", flush=True)
+    precision = totals["correct"] / totals["named"] if totals["named"] else 0.0
+    recall = totals["correct"] / totals["true"] if totals["true"] else 0.0
+    f1 = 2 * totals["correct"] / (totals["true"] + totals["named"])
+    minutes = between / 30 / 60
+    report = {"sessions": sessions, "width": args.width, "height": args.height,
+              **totals, "precision": precision, "recall": recall, "f1": f1,
+              "frames": frames, "between_gesture_frames": between,
+              "false_commands_per_10_min": 10 * totals["false"] / minutes if minutes else None,
+              "latency_median_frames": float(np.median(latencies)) if latencies else None,
+              "latency_p95_frames": float(np.percentile(latencies, 95)) if latencies else None,
+              "cpu_s": {key: round(v, 1) for key, v in cpu.items()},
+              "spotting_us_per_frame": round(1e6 * cpu["spotting"] / frames, 1)}
+    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.json).write_text(json.dumps(report, indent=1) + "\n")
+    print(f"{args.sessions} rendered sessions of {args.per_session} gestures at "
+          f"{args.width}x{args.height}, pauses 0-15 frames, {frames} frames:")
+    print(f"  F1 {100 * f1:.2f} %  precision {100 * precision:.2f} %  recall "
+          f"{100 * recall:.2f} %")
+    print(f"  false commands {totals['false']} ({report['false_commands_per_10_min']:.1f} per "
+          f"10 minutes of the {between} frames outside the gestures' motion at 30 fps)")
+    print(f"  latency from a gesture's end to its name: median "
+          f"{report['latency_median_frames']} frames, 95th percentile "
+          f"{report['latency_p95_frames']}")
+    print(f"  CPU s: {report['cpu_s']}; spotting {report['spotting_us_per_frame']} us per frame")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
