@@ -145,3 +145,21 @@ def test_bench_live_small_prints_json(capsys):
     for run in result["runs"].values():
         assert run["cpu_seconds_per_frame"] > 0 and run["frames_per_wall_second"] > 0
     assert result["target_frames_per_second"] == 15 and isinstance(result["met"], bool)
+
+
+def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
+    """benchmarks/continuous_sessions.py on one short session: the truth's
+    gestures counted, the shipped continuous model naming them."""
+    import importlib.util
+    import json
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
+    spec = importlib.util.spec_from_file_location("continuous_sessions", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / "s.json"
+    assert module.main(["--sessions", "1", "--per-session", "2", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["true"] == 2 and report["sessions"][0]["seed"] == module.FIRST_SEED
+    assert report["correct"] == 2 and report["false"] == 0
+    assert "F1 100.00 %" in capsys.readouterr().out
