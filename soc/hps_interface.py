@@ -24,6 +24,7 @@ __all__ = [
     "FIFO_REGISTERS", "UART_REGISTERS", "GESTURE_NAMES",
     "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH", "FRAME_WIDTH", "FRAME_HEIGHT",
     "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
+    "ID", "VERSION", "CORE_MAGIC", "CORE_REVISION", "version_word", "decode_version",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
     "CTRL_READABLE_MASK", "CTRL_STREAM", "DATO_X_FLAG", "DATO_Y_PRESENT",
     "UART_TXDATA", "UART_STATUS", "UART_RXDATA", "UART_SPAN", "UART_STATUS_TX_READY",
@@ -158,7 +159,7 @@ FRAME_WIDTH = 640
 FRAME_HEIGHT = 480
 
 #: The centroid FIFO slave (thesis §7.4.1, Table 12: registers; Table 13: Control).
-FIFO_REGISTERS = RegisterMap("fifo", span=0x18, registers=(
+FIFO_REGISTERS = RegisterMap("fifo", span=0x20, registers=(
     Register("Dato_X", 0x00, "R",
              "pops the X FIFO: smoothed centroid x, unsigned 10.8 fixed point; an "
              "empty FIFO reads 0 and pops nothing",
@@ -187,6 +188,17 @@ FIFO_REGISTERS = RegisterMap("fifo", span=0x18, registers=(
     )),
     Register("Longitud_X", 0x10, "R", "entries in the X FIFO (0..FIFO_DEPTH)"),
     Register("Longitud_Y", 0x14, "R", "entries in the Y FIFO (0..FIFO_DEPTH)"),
+    Register("ID", 0x18, "R", "identification: reads CORE_MAGIC (ASCII \"SGST\") when a "
+             "stereogest core answers here; tells the core apart from a bridge that reads "
+             "all ones or all zeros", (Field("magic", 0, 32, "R", "CORE_MAGIC"),)),
+    Register("Version", 0x1C, "R", "the register interface's revision and the core's "
+             "build parameters the application depends on", (
+        Field("REVISION", 0, 8, "R", "CORE_REVISION: bumped when this map changes"),
+        Field("FIFO_DEPTH_LOG2", 8, 5, "R", "log2 of the entries per FIFO"),
+        Field("STREAMING", 13, 1, "R", "1 = Control's STREAM bit is implemented"),
+        Field("FRAME_WIDTH_DIV8", 16, 8, "R", "frame width in pixels / 8"),
+        Field("FRAME_HEIGHT_DIV8", 24, 8, "R", "frame height in pixels / 8"),
+    )),
 ))
 
 #: The UART slave to the RN-42 Bluetooth module (thesis §8.5.1; the map is ours).
@@ -208,7 +220,13 @@ RESERVED = FIFO_REGISTERS["reserved"].offset
 CONTROL = FIFO_REGISTERS["Control"].offset
 LONGITUD_X = FIFO_REGISTERS["Longitud_X"].offset
 LONGITUD_Y = FIFO_REGISTERS["Longitud_Y"].offset
-#: Bytes the FIFO slave decodes (six 32-bit words).
+ID = FIFO_REGISTERS["ID"].offset
+VERSION = FIFO_REGISTERS["Version"].offset
+#: What the ID register reads: ASCII "SGST" (0x53 0x47 0x53 0x54).
+CORE_MAGIC = 0x53475354
+#: Revision of this register map (2: streaming mode, ID and Version registers).
+CORE_REVISION = 2
+#: Bytes the FIFO slave decodes (eight 32-bit words).
 REGISTER_SPAN = FIFO_REGISTERS.span
 CTRL_GO = FIFO_REGISTERS["Control"]["GO"].mask
 CTRL_FIFO_DATA = FIFO_REGISTERS["Control"]["FIFO_DATA"].mask
@@ -233,3 +251,33 @@ UART_STATUS_RX_VALID = UART_REGISTERS["STATUS"]["RX_VALID"].mask
 #: The seven gestures of thesis Fig. 16 in class order: the renderer's gestures,
 #: the model files' classes and the NXT telegrams' digits (index + 1).
 GESTURE_NAMES = ("forward", "back", "right", "left", "rotate-right", "rotate-left", "stop")
+
+
+def version_word(*, fifo_depth: int = FIFO_DEPTH, streaming: bool = True,
+                 frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
+                 revision: int = CORE_REVISION) -> int:
+    """The Version register's value for a core built with these parameters."""
+    fields = FIFO_REGISTERS["Version"]
+    if fifo_depth < 2 or fifo_depth & (fifo_depth - 1) or fifo_depth.bit_length() - 1 > 31:
+        raise ValueError(f"fifo_depth must be a power of two in [2, 2**31], got {fifo_depth}")
+    for name, value in (("frame_width", frame_width), ("frame_height", frame_height)):
+        if value % 8 or not 8 <= value <= 255 * 8:
+            raise ValueError(f"{name} must be a multiple of 8 in [8, 2040], got {value}")
+    if not 0 <= revision <= 255:
+        raise ValueError(f"revision must be in [0, 255], got {revision}")
+    values = {"REVISION": revision, "FIFO_DEPTH_LOG2": fifo_depth.bit_length() - 1,
+              "STREAMING": int(bool(streaming)), "FRAME_WIDTH_DIV8": frame_width // 8,
+              "FRAME_HEIGHT_DIV8": frame_height // 8}
+    return sum(value << fields[name].bit for name, value in values.items())
+
+
+def decode_version(word: int) -> dict:
+    """The Version register's fields: ``revision``, ``fifo_depth``, ``streaming``,
+    ``frame_width``, ``frame_height``."""
+    fields = FIFO_REGISTERS["Version"]
+
+    def get(name):
+        return (word & fields[name].mask) >> fields[name].bit
+    return {"revision": get("REVISION"), "fifo_depth": 1 << get("FIFO_DEPTH_LOG2"),
+            "streaming": bool(get("STREAMING")), "frame_width": get("FRAME_WIDTH_DIV8") * 8,
+            "frame_height": get("FRAME_HEIGHT_DIV8") * 8}

@@ -111,7 +111,7 @@ from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FR
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
 from .robot import NullLink
-from .telegram import GESTURE_NAMES, telegram
+from .telegram import GESTURE_NAMES, hex_bytes, telegram
 
 __all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "DEFAULT_MIN_SYMBOLS",
            "DEFAULT_MAX_POINTS", "DEFAULT_GESTURE_TIMEOUT", "DEFAULT_HEARTBEAT",
@@ -204,7 +204,7 @@ class GestureResult:
                 "scores": [s if np.isfinite(s) else None for s in self.scores],
                 "num_points": self.num_points, "num_symbols": self.num_symbols,
                 "reason": self.reason,
-                "telegram": self.telegram.hex(" ") if self.telegram is not None else None,
+                "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
                 "sent": self.sent}
 
 
@@ -769,7 +769,7 @@ class GestureApp:
             log.error("S4: robot link raised %s: %s", type(exc).__name__, exc)
             sent = False
         if not sent:
-            log.warning("S4: telegram %s for %r not delivered", data.hex(" "), result.class_name)
+            log.warning("S4: telegram %s for %r not delivered", hex_bytes(data), result.class_name)
         self._pending = dataclasses.replace(result, telegram=data, sent=sent)
 
     def _clear(self) -> None:  # S5

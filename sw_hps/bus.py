@@ -17,7 +17,13 @@ from __future__ import annotations
 import logging
 import mmap
 import os
-from typing import Protocol, runtime_checkable
+try:  # Python 3.8+; on 3.7 the interface is only documented
+    from typing import Protocol, runtime_checkable
+except ImportError:
+    Protocol = object
+
+    def runtime_checkable(cls):
+        return cls
 
 from soc.hps_interface import LIGHTWEIGHT_BRIDGE_BASE
 

@@ -24,9 +24,16 @@ import select
 import termios
 import time
 from collections import deque
-from typing import Callable, Protocol
+from typing import Callable
+
+try:  # Python 3.8+; on 3.7 the interface is only documented
+    from typing import Protocol
+except ImportError:
+    Protocol = object
 
 from soc.hps_interface import UART_STATUS, UART_STATUS_TX_READY, UART_TXDATA
+
+from .telegram import hex_bytes
 
 __all__ = ["Link", "NullLink", "SerialLink", "UartLink", "configure_rn42",
            "normalise_bt_address"]
@@ -50,7 +57,7 @@ class NullLink:
 
     def send(self, data: bytes) -> bool:
         data = bytes(data)
-        log.info("robot none: telegram %s", data.hex(" "))
+        log.info("robot none: telegram %s", hex_bytes(data))
         self.sent.append(data)
         return True
 

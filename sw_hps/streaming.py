@@ -38,7 +38,7 @@ from typing import Callable
 from .continuous import ContinuousRecogniser, Detection, step_pixels
 from .fifo import FRAC_BITS, FRAME_WIDTH
 from .orientation import DistanceSymbols
-from .telegram import GESTURE_NAMES, telegram
+from .telegram import GESTURE_NAMES, hex_bytes, telegram
 
 __all__ = ["StreamingApp", "StreamSpotter", "SpottedGesture", "check_streaming_models"]
 
@@ -80,7 +80,7 @@ class SpottedGesture:
     def to_dict(self) -> dict:
         return {"name": self.class_name, "first": self.first, "last": self.last,
                 "named_at": self.named_at, "score": round(self.score, 3),
-                "telegram": self.telegram.hex(" ") if self.telegram is not None else None,
+                "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
                 "sent": self.sent}
 
 
@@ -279,7 +279,7 @@ class StreamingApp:
             except Exception as exc:  # a link must not raise; keep the result if it does
                 log.error("robot link raised %s: %s", type(exc).__name__, exc)
             if not sent:
-                log.warning("telegram %s for %r not delivered", data.hex(" "), name)
+                log.warning("telegram %s for %r not delivered", hex_bytes(data), name)
         else:
             log.warning("class %r is not one of the robot's gestures; nothing sent", name)
         result = SpottedGesture(detection.class_index, name, detection.first, detection.last,
@@ -287,7 +287,7 @@ class StreamingApp:
         self.results.append(result)
         log.info("spotted %s (frames %d-%d, named at %d, score %.2f)%s", name,
                  result.first, result.last, result.named_at, result.score,
-                 f", telegram {data.hex(' ')}" if sent else "")
+                 f", telegram {hex_bytes(data)}" if sent else "")
         if self.on_result is not None:
             try:
                 self.on_result(result)

@@ -36,7 +36,7 @@ import struct
 from soc.hps_interface import GESTURE_NAMES
 
 __all__ = ["GESTURE_NAMES", "ROBOT_ACTIONS", "NXT_DIRECT_NO_REPLY", "NXT_MESSAGEWRITE",
-           "NXT_INBOX", "telegram", "gesture_index"]
+           "NXT_INBOX", "telegram", "gesture_index", "hex_bytes"]
 
 #: Action the NXT program performs for each gesture (our Table 15).
 ROBOT_ACTIONS = ("drive forward", "drive backward", "turn right (pivot), then forward",
@@ -80,3 +80,8 @@ def telegram(gesture) -> bytes:
     body = bytes([NXT_DIRECT_NO_REPLY, NXT_MESSAGEWRITE, NXT_INBOX, len(message) + 1]) \
         + message + b"\x00"
     return struct.pack("<H", len(body)) + body
+
+
+def hex_bytes(data: bytes) -> str:
+    """``data`` as spaced hex (``bytes.hex(" ")`` needs Python 3.8)."""
+    return " ".join("{:02x}".format(b) for b in bytes(data))
