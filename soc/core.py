@@ -42,7 +42,7 @@ from sim.model.vga import SCALE_RANGE
 from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
 from .frame_buffer import NO_INIT_ATTR, VGA_SCALE, FrameBuffer
-from .hps_interface import DATA_BITS, FIFO_BASE, UART_BASE
+from .hps_interface import DATA_BITS, FIFO_BASE, FIFO_DEPTH, UART_BASE
 from .ov5642_config import Ov5642Config
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
@@ -117,7 +117,7 @@ class StereogestCore(wiring.Component):
                  params: PipelineParams = PipelineParams(), *, rectification=None,
                  sync_freq: float = SYNC_HZ,
                  config_freq: float = CONFIG_HZ, vga_mode: VgaMode = VGA_640x480_60,
-                 fifo_depth: int = 512, sync_fifo_depth: int = 2048,
+                 fifo_depth: int = FIFO_DEPTH, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
                  vga_scale: int = VGA_SCALE,
                  config_table=None):
@@ -138,7 +138,8 @@ class StereogestCore(wiring.Component):
                              f"{1 << (DATA_BITS - params.frac_bits)} (the FIFO words' "
                              f"{DATA_BITS}-bit coordinates), got {width}x{height}")
         # the register map's width at every frame size: FLAG and PRESENT at bit 18
-        self.fifo_slave = FifoSlave(data_bits=DATA_BITS, depth=fifo_depth)
+        self.fifo_slave = FifoSlave(data_bits=DATA_BITS, depth=fifo_depth,
+                                    frame_width=width, frame_height=height)
         self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
         self.config = [Ov5642Config(clk_freq=self.config_freq, table=config_table)
                        for _ in range(2)]

@@ -13,14 +13,15 @@ from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from sim.model.validation import check_int, check_power_of_two
-from .hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_GO, CTRL_STREAM, DATA_BITS, DATO_X,
-                            DATO_Y, FIFO_DEPTH, FIFO_REGISTERS, LONGITUD_X, LONGITUD_Y)
+from .hps_interface import (CONTROL, CORE_MAGIC, CTRL_FIFO_CLR, CTRL_GO, CTRL_STREAM, DATA_BITS,
+                            DATO_X, DATO_Y, FIFO_DEPTH, FIFO_REGISTERS, FRAME_HEIGHT,
+                            FRAME_WIDTH, ID, LONGITUD_X, LONGITUD_Y, VERSION, version_word)
 
 from .avalon import DATA_WIDTH, AvalonSlaveSignature
 
 __all__ = ["FifoSlave", "ADDRESS_WIDTH", "DATA_BITS_RANGE", "DEPTH_RANGE"]
 
-#: Word-address bits: six registers (0x00..0x14) -> word addresses 0..5.
+#: Word-address bits: eight registers (0x00..0x1C) -> word addresses 0..7.
 ADDRESS_WIDTH = FIFO_REGISTERS.address_width
 #: (one bit above the data carries the streaming mode's FLAG / PRESENT)
 DATA_BITS_RANGE = (1, DATA_WIDTH - 1)
@@ -46,6 +47,12 @@ class FifoSlave(wiring.Component):
     depth : int, power of two in [2, 65536]
         Entries per FIFO (:data:`soc.hps_interface.FIFO_DEPTH` = 512: one M10K block of
         512 x 18 bits per FIFO). Longitud_X / Longitud_Y count 0..depth.
+    frame_width, frame_height : int in [1, 2040]
+        Size of the frames whose centroids are pushed (the core passes the size
+        it is built at; default the board's 640 x 480): only reported, in the
+        Version register, with the depth, the streaming mode and
+        :data:`~soc.hps_interface.CORE_REVISION`
+        (:func:`soc.hps_interface.version_word`).
 
     Ports
     -----
@@ -76,13 +83,24 @@ class FifoSlave(wiring.Component):
     state after the access: a write of GO or STREAM rules that cycle's push, a FIFO-CLR
     empties the FIFOs before the pair is pushed, and a pop of a full FIFO makes
     room for it. This is the order ``read32`` / ``write32`` then ``push_frame``
-    of :class:`~sw_hps.simulated.SimulatedFifoPeripheral`. Word addresses 6 and 7
-    read 0 like the reserved word; writes other than Control are ignored.
+    of :class:`~sw_hps.simulated.SimulatedFifoPeripheral`. ID (word 6) reads
+    :data:`~soc.hps_interface.CORE_MAGIC` and Version (word 7) :attr:`version`,
+    constants; writes other than Control are ignored.
+
+    Attributes
+    ----------
+    version : int
+        What the Version register reads.
     """
 
-    def __init__(self, data_bits: int = DATA_BITS, depth: int = FIFO_DEPTH):
+    def __init__(self, data_bits: int = DATA_BITS, depth: int = FIFO_DEPTH, *,
+                 frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT):
         self.data_bits = check_int("data_bits", data_bits, *DATA_BITS_RANGE)
         self.depth = check_power_of_two("depth", depth, *DEPTH_RANGE)
+        # validates the frame size (the message names the parameter)
+        self.version = version_word(fifo_depth=self.depth, streaming=True,
+                                    frame_width=frame_width, frame_height=frame_height)
+        self.frame_width, self.frame_height = frame_width, frame_height
         super().__init__({
             "bus": In(AvalonSlaveSignature(ADDRESS_WIDTH)),
             "i_stream": In(stream.Signature(data.StructLayout(
@@ -176,6 +194,10 @@ class FifoSlave(wiring.Component):
                     m.d.sync += reg_data.eq(count_x)
                 with m.Case(LONGITUD_Y // 4):
                     m.d.sync += reg_data.eq(count_y)
+                with m.Case(ID // 4):
+                    m.d.sync += reg_data.eq(CORE_MAGIC)
+                with m.Case(VERSION // 4):
+                    m.d.sync += reg_data.eq(self.version)
         m.d.comb += bus.readdata.eq(Mux(from_x, fifos["x"]["rport"].data,
                                         Mux(from_y, fifos["y"]["rport"].data, reg_data)))
 

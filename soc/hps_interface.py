@@ -194,10 +194,12 @@ FIFO_REGISTERS = RegisterMap("fifo", span=0x20, registers=(
     Register("Version", 0x1C, "R", "the register interface's revision and the core's "
              "build parameters the application depends on", (
         Field("REVISION", 0, 8, "R", "CORE_REVISION: bumped when this map changes"),
-        Field("FIFO_DEPTH_LOG2", 8, 5, "R", "log2 of the entries per FIFO"),
+        Field("FIFO_DEPTH_LOG2", 8, 5, "R", "log2 of the entries per FIFO, rounded down "
+                                            "(the hardware's depths are powers of two)"),
         Field("STREAMING", 13, 1, "R", "1 = Control's STREAM bit is implemented"),
-        Field("FRAME_WIDTH_DIV8", 16, 8, "R", "frame width in pixels / 8"),
-        Field("FRAME_HEIGHT_DIV8", 24, 8, "R", "frame height in pixels / 8"),
+        Field("FRAME_WIDTH_DIV8", 16, 8, "R", "frame width in pixels / 8, rounded up: "
+                                              "Dato_X's x lies below 8 times this"),
+        Field("FRAME_HEIGHT_DIV8", 24, 8, "R", "frame height in pixels / 8, rounded up"),
     )),
 ))
 
@@ -256,24 +258,50 @@ GESTURE_NAMES = ("forward", "back", "right", "left", "rotate-right", "rotate-lef
 def version_word(*, fifo_depth: int = FIFO_DEPTH, streaming: bool = True,
                  frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
                  revision: int = CORE_REVISION) -> int:
-    """The Version register's value for a core built with these parameters."""
+    """The Version register's value for a core built with these parameters.
+
+    Parameters
+    ----------
+    fifo_depth : int in [1, 2**32 - 1]
+        Entries per FIFO; recorded as log2 rounded down (a power of two, as in
+        the hardware, is exact; the software model also takes other depths).
+    streaming : bool
+        Whether Control's STREAM bit is implemented.
+    frame_width, frame_height : int in [1, 2040]
+        Frame size in pixels; recorded in units of 8 pixels rounded up (exact
+        for the board's 640 x 480), so that coordinates always lie below the
+        decoded size.
+    revision : int in [0, 255]
+        Revision of the register map (:data:`CORE_REVISION`).
+
+    Raises
+    ------
+    ValueError
+        A value outside its range (the message names it).
+    """
     fields = FIFO_REGISTERS["Version"]
-    if fifo_depth < 2 or fifo_depth & (fifo_depth - 1) or fifo_depth.bit_length() - 1 > 31:
-        raise ValueError(f"fifo_depth must be a power of two in [2, 2**31], got {fifo_depth}")
-    for name, value in (("frame_width", frame_width), ("frame_height", frame_height)):
-        if value % 8 or not 8 <= value <= 255 * 8:
-            raise ValueError(f"{name} must be a multiple of 8 in [8, 2040], got {value}")
-    if not 0 <= revision <= 255:
-        raise ValueError(f"revision must be in [0, 255], got {revision}")
+
+    def limit(name):
+        # the largest value the field holds, and the parameter that maps onto it
+        return fields[name].mask >> fields[name].bit
+
+    checks = (("fifo_depth", fifo_depth, 1, (1 << (limit("FIFO_DEPTH_LOG2") + 1)) - 1),
+              ("frame_width", frame_width, 1, 8 * limit("FRAME_WIDTH_DIV8")),
+              ("frame_height", frame_height, 1, 8 * limit("FRAME_HEIGHT_DIV8")),
+              ("revision", revision, 0, limit("REVISION")))
+    for name, value, low, high in checks:
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(f"{name} must be an int in [{low}, {high}], got {value!r}")
     values = {"REVISION": revision, "FIFO_DEPTH_LOG2": fifo_depth.bit_length() - 1,
-              "STREAMING": int(bool(streaming)), "FRAME_WIDTH_DIV8": frame_width // 8,
-              "FRAME_HEIGHT_DIV8": frame_height // 8}
+              "STREAMING": int(bool(streaming)), "FRAME_WIDTH_DIV8": -(-frame_width // 8),
+              "FRAME_HEIGHT_DIV8": -(-frame_height // 8)}
     return sum(value << fields[name].bit for name, value in values.items())
 
 
 def decode_version(word: int) -> dict:
     """The Version register's fields: ``revision``, ``fifo_depth``, ``streaming``,
-    ``frame_width``, ``frame_height``."""
+    ``frame_width``, ``frame_height`` (the inverse of :func:`version_word` up to
+    its rounding: a power of two of entries, multiples of 8 pixels)."""
     fields = FIFO_REGISTERS["Version"]
 
     def get(name):

@@ -9,7 +9,8 @@ HPS-to-FPGA bridge) and this driver take the register map from there, and
 The register map is declared in :data:`soc.hps_interface.FIFO_REGISTERS` (its
 ``table()`` prints it): Dato_X and Dato_Y pop the two FIFOs (10.8 fixed point),
 Control holds GO, FIFO data, gesture, FIFO-CLR, FIFO-FULL and STREAM, Longitud_X
-and Longitud_Y count the entries.
+and Longitud_Y count the entries, ID reads :data:`CORE_MAGIC` and Version the
+core's build parameters (:meth:`FifoPeripheral.identify`).
 
 The gesture spotting runs whatever GO is; GO gates its effects. While GO is 1 the
 hardware pushes one (x, y) pair per video frame whose spotting flag is set, and the
@@ -34,15 +35,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from soc.hps_interface import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL,
-                               CTRL_GO, CTRL_NO_GESTURE, CTRL_READABLE_MASK, CTRL_STREAM,
-                               DATO_X_FLAG, DATO_Y_PRESENT, DATA_BITS,
-                               DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT,
-                               FRAME_WIDTH, LIGHTWEIGHT_BRIDGE_BASE, LONGITUD_X, LONGITUD_Y,
-                               REGISTER_SPAN, RESERVED)
+from typing import Optional
+
+from soc.hps_interface import (CONTROL, CORE_MAGIC, CORE_REVISION, CTRL_FIFO_CLR,
+                               CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO, CTRL_NO_GESTURE,
+                               CTRL_READABLE_MASK, CTRL_STREAM, DATO_X_FLAG, DATO_Y_PRESENT,
+                               DATA_BITS, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, FRAC_BITS,
+                               FRAME_HEIGHT, FRAME_WIDTH, ID, LIGHTWEIGHT_BRIDGE_BASE,
+                               LONGITUD_X, LONGITUD_Y, REGISTER_SPAN, RESERVED, VERSION,
+                               decode_version)
 
 __all__ = [
-    "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "REGISTER_SPAN",
+    "DATO_X", "DATO_Y", "RESERVED", "CONTROL", "LONGITUD_X", "LONGITUD_Y", "ID", "VERSION",
+    "REGISTER_SPAN", "CORE_MAGIC", "CORE_REVISION", "CoreIdentity",
     "CTRL_GO", "CTRL_FIFO_DATA", "CTRL_NO_GESTURE", "CTRL_FIFO_CLR", "CTRL_FIFO_FULL",
     "CTRL_READABLE_MASK", "CTRL_STREAM", "DATO_X_FLAG", "DATO_Y_PRESENT", "FRAC_BITS", "DATA_BITS", "DATA_MASK", "FIFO_DEPTH",
     "FRAME_WIDTH", "FRAME_HEIGHT", "LIGHTWEIGHT_BRIDGE_BASE", "FifoStatus", "FifoPeripheral",
@@ -105,6 +110,71 @@ class FifoStatus:
                    streaming=bool(control & CTRL_STREAM))
 
 
+def _ascii(word: int) -> str:
+    """A register word as four characters, most significant byte first (how
+    :data:`CORE_MAGIC` spells "SGST"); bytes that are not printable show as '.'."""
+    return "".join(chr(b) if 0x20 <= b < 0x7F else "."
+                   for b in ((word >> shift) & 0xFF for shift in (24, 16, 8, 0)))
+
+
+@dataclass(frozen=True)
+class CoreIdentity:
+    """What the ID and Version registers say about the core behind the bridge.
+
+    Attributes
+    ----------
+    magic : int
+        The ID register as read.
+    version_word : int
+        The Version register as read.
+    present : bool
+        ID reads :data:`CORE_MAGIC`: a stereogest core answers at this address
+        (a bitstream from before the ID register, an unconfigured FPGA or a
+        disabled bridge reads something else).
+    revision, fifo_depth, streaming, frame_width, frame_height : optional
+        The Version register's fields (:func:`soc.hps_interface.decode_version`);
+        None unless ``present`` (another word's bits mean nothing).
+    """
+    magic: int
+    version_word: int
+    present: bool
+    revision: Optional[int] = None
+    fifo_depth: Optional[int] = None
+    streaming: Optional[bool] = None
+    frame_width: Optional[int] = None
+    frame_height: Optional[int] = None
+
+    @classmethod
+    def decode(cls, magic: int, version_word: int) -> "CoreIdentity":
+        """The record for the two register words."""
+        magic, version_word = int(magic) & 0xFFFFFFFF, int(version_word) & 0xFFFFFFFF
+        if magic != CORE_MAGIC:
+            return cls(magic=magic, version_word=version_word, present=False)
+        return cls(magic=magic, version_word=version_word, present=True,
+                   **decode_version(version_word))
+
+    @property
+    def supported(self) -> bool:
+        """A core whose register map is the one this driver was written for
+        (:data:`CORE_REVISION`)."""
+        return self.present and self.revision == CORE_REVISION
+
+    def describe(self) -> str:
+        """One line for logs and ``--check``."""
+        if not self.present:
+            return (f"no stereogest core: ID reads {self.magic:#010x} ('{_ascii(self.magic)}'), "
+                    f"expected {CORE_MAGIC:#010x} ('{_ascii(CORE_MAGIC)}'): no FPGA image "
+                    f"loaded, the bridge not enabled, a bitstream from before the ID "
+                    f"register, or a wrong bridge offset")
+        line = (f"stereogest core, register map revision {self.revision}: FIFO depth "
+                f"{self.fifo_depth}, streaming mode "
+                f"{'implemented' if self.streaming else 'absent'}, frames "
+                f"{self.frame_width}x{self.frame_height} (Version {self.version_word:#010x})")
+        if not self.supported:
+            line += f"; this application expects revision {CORE_REVISION}"
+        return line
+
+
 class FifoPeripheral:
     """Typed driver of the FIFO slave over any :class:`sw_hps.bus.Bus`
     (thesis §7.4.1, Tables 12-13).
@@ -147,6 +217,11 @@ class FifoPeripheral:
         ``keep_running`` (one write: GO, STREAM and FIFO-CLR together)."""
         self._write(CONTROL, CTRL_FIFO_CLR | (CTRL_GO if keep_running else 0)
                     | (CTRL_STREAM if streaming else 0))
+
+    def identify(self) -> CoreIdentity:
+        """Read ID and Version (two bus reads, no side effect): which core
+        answers at this address and with what parameters it was built."""
+        return CoreIdentity.decode(self._read(ID), self._read(VERSION))
 
     def status(self) -> FifoStatus:
         """Read Control, Longitud_X and Longitud_Y (three bus reads)."""

@@ -36,19 +36,21 @@ import numpy as np
 
 from .app import GestureApp, GestureResult, State
 from .bus import SimBus
-from .fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
+from .fifo import (CONTROL, CORE_MAGIC, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
                    CTRL_NO_GESTURE, CTRL_STREAM, DATA_MASK, DATO_X, DATO_X_FLAG, DATO_Y,
-                   DATO_Y_PRESENT, FIFO_DEPTH, FRAME_WIDTH as FIFO_FRAME_WIDTH, LONGITUD_X,
-                   LONGITUD_Y, REGISTER_SPAN, FifoPeripheral, to_fixed)
+                   DATO_Y_PRESENT, FIFO_DEPTH, FRAME_HEIGHT as FIFO_FRAME_HEIGHT,
+                   FRAME_WIDTH as FIFO_FRAME_WIDTH, ID, LONGITUD_X, LONGITUD_Y, REGISTER_SPAN,
+                   VERSION, FifoPeripheral, to_fixed)
 from .hmm import GestureModels
 from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID,
-                               UART_STATUS_TX_READY, UART_TXDATA)
+                               UART_STATUS_TX_READY, UART_TXDATA, version_word)
 
-from .robot import NullLink
+from .robot import RN42_GUARD_TIME, NullLink, normalise_bt_address
+from .telegram import NXT_DIRECT_NO_REPLY, NXT_MESSAGEWRITE, NXT_REPLY
 
-__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "read_trajectory_csv", "SimulatedClock",
-           "SimulationRun", "simulate_trajectory", "run_on_trajectory", "streaming_words",
-           "simulate_stream", "run_stream"]
+__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "SimulatedRn42", "read_trajectory_csv",
+           "SimulatedClock", "SimulationRun", "simulate_trajectory", "run_on_trajectory",
+           "streaming_words", "simulate_stream", "run_stream"]
 
 log = logging.getLogger(__name__)
 
@@ -67,14 +69,21 @@ class SimulatedFifoPeripheral:
     Parameters
     ----------
     depth : int >= 1
-        Entries per FIFO (the hardware has :data:`soc.hps_interface.FIFO_DEPTH`).
+        Entries per FIFO (the hardware has :data:`soc.hps_interface.FIFO_DEPTH`;
+        its depths are powers of two, the model takes any depth, and its
+        Version register then reports the power of two below).
     reads_per_frame : int >= 1 or None
         If set, every ``reads_per_frame``-th read of Control steps one frame first
         (see the module docstring). ``None``: frames advance only when the test
         calls :meth:`push_frame` or :meth:`step`.
+    frame_width, frame_height : int in [1, 2040]
+        Frame size the Version register reports, as the hardware's
+        :class:`soc.fifo_slave.FifoSlave` parameters of the same names.
 
     Attributes
     ----------
+    version : int
+        What the Version register reads (ID reads :data:`soc.hps_interface.CORE_MAGIC`).
     frames : int
         Video frames seen so far.
     streaming : bool
@@ -87,9 +96,13 @@ class SimulatedFifoPeripheral:
 
     span = REGISTER_SPAN
 
-    def __init__(self, depth: int = FIFO_DEPTH, reads_per_frame: int | None = None):
+    def __init__(self, depth: int = FIFO_DEPTH, reads_per_frame: int | None = None, *,
+                 frame_width: int = FIFO_FRAME_WIDTH, frame_height: int = FIFO_FRAME_HEIGHT):
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
             raise ValueError(f"depth must be an int >= 1, got {depth!r}")
+        # the hardware implements the streaming mode, and so does this model
+        self.version = version_word(fifo_depth=depth, streaming=True,
+                                    frame_width=frame_width, frame_height=frame_height)
         if reads_per_frame is not None and (isinstance(reads_per_frame, bool)
                                             or not isinstance(reads_per_frame, int)
                                             or reads_per_frame < 1):
@@ -219,11 +232,15 @@ class SimulatedFifoPeripheral:
             return len(self.fifo_x)
         if offset == LONGITUD_Y:
             return len(self.fifo_y)
+        if offset == ID:
+            return CORE_MAGIC
+        if offset == VERSION:
+            return self.version
         return 0  # reserved (and anything else in the window)
 
     def write32(self, offset: int, value: int) -> None:
         if offset != CONTROL:
-            return  # Dato_*, Longitud_* and reserved ignore writes
+            return  # Dato_*, Longitud_*, reserved, ID and Version ignore writes
         self.go = bool(value & CTRL_GO)
         self.streaming = bool(value & CTRL_STREAM)
         if value & CTRL_FIFO_CLR:
@@ -244,6 +261,9 @@ class SimulatedUart:
         (the byte being shifted out).
     stuck : bool
         TX ready never rises (a hung UART; the link must give up, not hang).
+    responder : callable, optional
+        What is wired to the pins: called with each transmitted byte, returns
+        the bytes it sends back (queued for RXDATA), e.g. a :class:`SimulatedRn42`.
 
     Attributes
     ----------
@@ -255,9 +275,11 @@ class SimulatedUart:
 
     span = UART_SPAN
 
-    def __init__(self, busy_reads: int = 0, stuck: bool = False):
+    def __init__(self, busy_reads: int = 0, stuck: bool = False,
+                 responder: Callable[[int], bytes] | None = None):
         self.busy_reads = int(busy_reads)
         self.stuck = bool(stuck)
+        self.responder = responder
         self.transmitted = bytearray()
         self.receive_queue: deque[int] = deque()
         self.overruns = 0
@@ -285,6 +307,152 @@ class SimulatedUart:
             return
         self.transmitted.append(value & 0xFF)
         self._busy = self.busy_reads
+        if self.responder is not None:
+            self.receive_queue.extend(self.responder(value & 0xFF))
+
+
+class SimulatedRn42:
+    """An RN-42 Bluetooth module and the NXT brick behind it, as the
+    ``responder`` of a :class:`SimulatedUart` (what :func:`sw_hps.robot.configure_rn42`
+    and :class:`sw_hps.robot.RobotChannel` expect of the real ones; docs/robot-link.md).
+
+    The module: ``$$$`` enters command mode while not connected (with ``clock``,
+    only after :data:`sw_hps.robot.RN42_GUARD_TIME` without data before it) and
+    answers ``CMD``; in command mode ``SM,<n>`` and ``SO,<text>`` answer ``AOK``
+    (the status string is stored and used from the next :meth:`reboot`, as set
+    commands are), ``C,<address>`` connects when the address is the brick's (and
+    the brick is :attr:`reachable`), printing ``<status>CONNECT`` (the model
+    prints nothing when it fails); other lines answer ``?``. Connected, data goes
+    to the brick, which answers a Bluetooth-framed direct command sent with "reply
+    required" with ``03 00 02 <opcode> <status>``. Replies come at once (the
+    real module waits out its 1 s window before ``CMD``).
+
+    Parameters
+    ----------
+    nxt_address : str, optional
+        The brick's address (12 hex digits). None: any address connects.
+    connected : bool, optional
+        Connected at power-up (paired and connected by hand); default: only
+        when ``nxt_address`` is None.
+    status_prefix : bytes
+        The status string in effect (b"": the factory setting, no status lines).
+    nxt_status : int
+        Status byte the brick answers (0 success, 0xEC no program running).
+    clock : callable, optional
+        Monotonic seconds; enables the guard-time check before ``$$$``.
+
+    Attributes
+    ----------
+    messages : list of bytes
+        The MessageWrite messages the brick received (mailbox contents).
+    commands : list of bytes
+        Command-mode lines (and ``$$$``) the module received.
+    reachable : bool
+        The brick is in range and on (a test switches it off).
+    """
+
+    def __init__(self, nxt_address: str | None = None, *, connected: bool | None = None,
+                 status_prefix: bytes = b"", nxt_status: int = 0,
+                 clock: Callable[[], float] | None = None):
+        self.nxt_address = None if nxt_address is None else normalise_bt_address(nxt_address)
+        self.connected = (nxt_address is None) if connected is None else bool(connected)
+        self.status_prefix = bytes(status_prefix)
+        self.nxt_status = int(nxt_status)
+        self.reachable = True
+        self.messages: list[bytes] = []
+        self.commands: list[bytes] = []
+        self._clock = clock
+        self._stored_prefix = self.status_prefix
+        self._command_mode = False
+        self._line = bytearray()
+        self._dollars = 0
+        self._quiet_since = float("-inf")   # clock time of the last byte before a '$' run
+        self._last_byte_at = float("-inf")
+        self._frame = bytearray()            # the brick's receive buffer
+
+    def reboot(self) -> None:
+        """Power cycle: disconnected, data mode, stored settings in effect."""
+        self.connected = False
+        self._command_mode = False
+        self.status_prefix = self._stored_prefix
+        self._line.clear()
+        self._frame.clear()
+
+    def drop(self) -> bytes:
+        """The Bluetooth link drops (brick switched off or out of range); returns
+        the status line the module prints (queue it on the UART)."""
+        self.connected = False
+        self._frame.clear()
+        return self._status(b"DISCONNECT")
+
+    def _status(self, what: bytes) -> bytes:
+        return self.status_prefix + what + b"\r\n" if self.status_prefix else b""
+
+    def __call__(self, byte: int) -> bytes:
+        now = self._clock() if self._clock is not None else 0.0
+        quiet_before = now - self._last_byte_at
+        self._last_byte_at = now
+        if self._command_mode:
+            return self._command_byte(byte)
+        if byte == ord("$"):
+            if self._dollars == 0:
+                self._quiet_since = quiet_before
+            self._dollars += 1
+        else:
+            self._dollars = 0
+        if self._dollars == 3 and not self.connected:
+            self._dollars = 0
+            self.commands.append(b"$$$")
+            if self._clock is None or self._quiet_since >= RN42_GUARD_TIME:
+                self._command_mode = True
+                return b"CMD\r\n"
+            return b""
+        if self.connected:
+            return self._brick_byte(byte)
+        return b""
+
+    def _command_byte(self, byte: int) -> bytes:
+        if byte not in (0x0D, 0x0A):
+            self._line.append(byte)
+            return b""
+        line, self._line = bytes(self._line), bytearray()
+        if not line:
+            return b""
+        self.commands.append(line)
+        if line.startswith(b"SM,"):
+            return b"AOK\r\n"
+        if line.startswith(b"SO,"):
+            self._stored_prefix = line[3:]
+            return b"AOK\r\n"
+        if line == b"---":
+            self._command_mode = False
+            return b"END\r\n"
+        if line.startswith(b"C,"):
+            self._command_mode = False
+            address = line[2:].decode("ascii", "replace").upper()
+            if self.reachable and self.nxt_address in (None, address):
+                self.connected = True
+                return self._status(b"CONNECT")
+            return b""
+        return b"?\r\n"
+
+    def _brick_byte(self, byte: int) -> bytes:
+        self._frame.append(byte)
+        if len(self._frame) < 2:
+            return b""
+        length = self._frame[0] | self._frame[1] << 8
+        if not 2 <= length <= 64:          # not a telegram: the brick resynchronises
+            self._frame.clear()
+            return b""
+        if len(self._frame) < 2 + length:
+            return b""
+        body, self._frame = bytes(self._frame[2:]), bytearray()
+        kind, opcode = body[0], body[1]
+        if opcode == NXT_MESSAGEWRITE and len(body) >= 4:   # inbox, size, message
+            self.messages.append(body[4:4 + body[3]].rstrip(b"\x00"))
+        if kind & NXT_DIRECT_NO_REPLY:
+            return b""
+        return bytes([3, 0, NXT_REPLY, opcode, self.nxt_status])
 
 
 def read_trajectory_csv(path):
@@ -499,7 +667,7 @@ def simulate_stream(models, x, y, present=None, *, pixels: bool = False, link=No
     Control read), then the frames of a still hand until nothing is pending.
     Returns the app, not yet run (:func:`run_stream` runs it)."""
     from .streaming import StreamingApp
-    peripheral = SimulatedFifoPeripheral(reads_per_frame=1)
+    peripheral = SimulatedFifoPeripheral(reads_per_frame=1, frame_width=frame_width)
     x = np.asarray(x).reshape(-1)
     peripheral.queue_trajectory(x, y, np.zeros(len(x), bool), pixels=pixels, present=present)
     if bus is None:
@@ -507,8 +675,11 @@ def simulate_stream(models, x, y, present=None, *, pixels: bool = False, link=No
     else:
         bus.attach(0, peripheral)
     link = link if link is not None else NullLink()
-    app = StreamingApp(models, FifoPeripheral(bus), link,
-                       sleep=sleep if sleep is not None else SimulatedClock().sleep,
+    if sleep is None:              # simulated time: the clock advances by the sleeps
+        simulated = SimulatedClock()
+        sleep = simulated.sleep
+        app_options.setdefault("clock", simulated)
+    app = StreamingApp(models, FifoPeripheral(bus), link, sleep=sleep,
                        frame_width=frame_width, **app_options)
     app.peripheral = peripheral
     return app

@@ -12,11 +12,11 @@ import pytest
 import sw_hps
 from sw_hps import bus as bus_module
 from sw_hps.bus import Bus, BusError, DevMemBus, SimBus, UioBus, check_offset
-from sw_hps.fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
-                         CTRL_STREAM,
-                         CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, LONGITUD_X,
-                         LONGITUD_Y, REGISTER_SPAN, RESERVED, FifoPeripheral, FifoStatus,
-                         from_fixed, to_fixed)
+from sw_hps.fifo import (CONTROL, CORE_MAGIC, CORE_REVISION, CTRL_FIFO_CLR, CTRL_FIFO_DATA,
+                         CTRL_FIFO_FULL, CTRL_GO, CTRL_STREAM,
+                         CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, ID, LONGITUD_X,
+                         LONGITUD_Y, REGISTER_SPAN, RESERVED, VERSION, CoreIdentity,
+                         FifoPeripheral, FifoStatus, from_fixed, to_fixed)
 from sw_hps.simulated import SimulatedFifoPeripheral, read_trajectory_csv
 
 SW_HPS = Path(sw_hps.__file__).parent
@@ -24,11 +24,12 @@ SW_HPS = Path(sw_hps.__file__).parent
 
 # ---- register map ---------------------------------------------------------------------
 def test_register_map_constants():
-    assert (DATO_X, DATO_Y, RESERVED, CONTROL, LONGITUD_X, LONGITUD_Y) == \
-        (0x00, 0x04, 0x08, 0x0C, 0x10, 0x14)
+    assert (DATO_X, DATO_Y, RESERVED, CONTROL, LONGITUD_X, LONGITUD_Y, ID, VERSION) == \
+        (0x00, 0x04, 0x08, 0x0C, 0x10, 0x14, 0x18, 0x1C)
     assert (CTRL_GO, CTRL_FIFO_DATA, CTRL_NO_GESTURE, CTRL_FIFO_CLR, CTRL_FIFO_FULL) == \
         (1, 2, 4, 8, 16)
-    assert REGISTER_SPAN == 0x18 and DATA_MASK == 0x3FFFF and FIFO_DEPTH == 512
+    assert REGISTER_SPAN == 0x20 and DATA_MASK == 0x3FFFF and FIFO_DEPTH == 512
+    assert CORE_MAGIC == 0x53475354
 
 
 def test_fixed_point_conversions():
@@ -53,7 +54,8 @@ def test_check_offset_accepts_last_word():
 def test_simbus_decodes_attached_devices():
     fifo = SimulatedFifoPeripheral()
     bus = SimBus(fifo, span=0x200)
-    assert isinstance(bus, Bus)
+    if sys.version_info >= (3, 8):      # typing.Protocol; Bus is a plain class on 3.7
+        assert isinstance(bus, Bus)
     other = SimulatedFifoPeripheral()
     bus.attach(0x100, other)
     bus.write32(0x100 + CONTROL, CTRL_GO)
@@ -210,9 +212,68 @@ def test_writes_to_read_only_bits_and_registers_are_ignored():
     peripheral, fifo = make_fifo()
     peripheral.write32(CONTROL, 0xFFFFFFFF & ~CTRL_FIFO_CLR)
     assert fifo.control() == CTRL_GO | CTRL_NO_GESTURE | CTRL_STREAM
-    for offset in (DATO_X, DATO_Y, RESERVED, LONGITUD_X, LONGITUD_Y):
+    identity = fifo.identify()
+    for offset in (DATO_X, DATO_Y, RESERVED, LONGITUD_X, LONGITUD_Y, ID, VERSION):
         peripheral.write32(offset, 123)
     assert fifo.status().length_x == 0
+    assert fifo.identify() == identity and identity.present
+
+
+# ---- identification: ID and Version ---------------------------------------------------
+def test_identify_the_board_core():
+    peripheral, fifo = make_fifo()
+    identity = fifo.identify()
+    assert identity == CoreIdentity(magic=0x53475354, version_word=0x3C502900 | CORE_REVISION,
+                                    present=True, revision=CORE_REVISION, fifo_depth=512,
+                                    streaming=True, frame_width=640, frame_height=480)
+    assert identity.supported
+    assert identity.describe() == (
+        f"stereogest core, register map revision {CORE_REVISION}: FIFO depth 512, streaming "
+        f"mode implemented, frames 640x480 (Version {identity.version_word:#010x})")
+    with pytest.raises(AttributeError):
+        identity.present = False                       # an immutable record
+    # two reads, no side effect on the FIFOs or on the frames played per Control read
+    peripheral.write32(CONTROL, CTRL_GO)
+    peripheral.push_frame(5, 6, True)
+    assert fifo.identify() == identity and fifo.status().length_x == 1
+
+
+def test_identify_reports_the_model_parameters():
+    """Another build's parameters; depths and sizes the fields cannot hold exactly
+    round as the hardware's Version does (depth down, size up)."""
+    _, fifo = make_fifo(depth=64, frame_width=320, frame_height=240)
+    got = fifo.identify()
+    assert (got.fifo_depth, got.frame_width, got.frame_height) == (64, 320, 240)
+    assert "FIFO depth 64" in got.describe() and "frames 320x240" in got.describe()
+    _, fifo = make_fifo(depth=20, frame_width=98, frame_height=61)
+    got = fifo.identify()
+    assert (got.fifo_depth, got.frame_width, got.frame_height) == (16, 104, 64)
+    with pytest.raises(ValueError, match=r"^frame_width must be an int in \[1, 2040\]"):
+        SimulatedFifoPeripheral(frame_width=4096)
+
+
+@pytest.mark.parametrize("word", [0x00000000, 0xFFFFFFFF, 0x53475355, 0x54534753])
+def test_identify_without_a_core(word):
+    """An old bitstream (words 6 and 7 read 0), a bridge reading all ones, a
+    near miss and the magic byte-swapped: not present, no decoded fields."""
+    bus = SimBus(span=0x100)
+    bus.attach(0x40, SimulatedFifoPeripheral())      # a core elsewhere in the window
+    fifo = FifoPeripheral(bus)
+    assert fifo.identify().present is False           # nothing at 0: reads 0
+    identity = CoreIdentity.decode(word, 0x3C502902)
+    assert not identity.present and not identity.supported
+    assert (identity.revision, identity.fifo_depth, identity.frame_width) == (None, None, None)
+    line = identity.describe()
+    assert line.startswith(f"no stereogest core: ID reads {word:#010x}")
+    assert "expected 0x53475354 ('SGST')" in line and "\n" not in line
+    assert FifoPeripheral(bus, base=0x40).identify().present
+
+
+def test_identify_an_other_revision():
+    identity = CoreIdentity.decode(CORE_MAGIC, (0x3C502900 | CORE_REVISION) + 1)
+    assert identity.present and not identity.supported
+    assert identity.revision == CORE_REVISION + 1
+    assert identity.describe().endswith(f"; this application expects revision {CORE_REVISION}")
 
 
 def test_push_frame_validates_values():
@@ -262,6 +323,8 @@ def test_read_trajectory_csv(tmp_path):
 def test_sw_hps_imports_only_stdlib_numpy_and_itself():
     """And the shared interface (soc/hps_interface.py, shipped with it), which
     imports the standard library alone."""
+    if not hasattr(sys, "stdlib_module_names"):
+        pytest.skip("sys.stdlib_module_names needs Python 3.10 (the dev Python runs this)")
     allowed = set(sys.stdlib_module_names) | {"numpy", "sw_hps"}
     files = [(path, allowed) for path in sorted(SW_HPS.glob("*.py"))]
     files.append((SW_HPS.parent / "soc" / "hps_interface.py", set(sys.stdlib_module_names)))
@@ -297,3 +360,87 @@ def test_sw_hps_runs_from_a_copy_without_the_project(tmp_path):
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"
+
+
+# ---- UioBus: the map size from sysfs -------------------------------------------------------
+def uio_tree(tmp_path, size, offset=0, addr=0xFF200000, name="stereogest", device="uio2"):
+    """A fake /sys/class/uio with one device, and a plain file as its node."""
+    sysfs = tmp_path / "sys"
+    maps = sysfs / device / "maps" / "map0"
+    maps.mkdir(parents=True)
+    (sysfs / device / "name").write_text(f"{name}\n")
+    if size is not None:
+        (maps / "size").write_text(f"{size:#010x}\n")
+    (maps / "addr").write_text(f"{addr:#010x}\n")
+    (maps / "offset").write_text(f"{offset:#x}\n")
+    node = tmp_path / device
+    node.write_bytes(bytes(0x2000))
+    return node, sysfs
+
+
+def test_read_uio_map(tmp_path):
+    from sw_hps.bus import UioMap, read_uio_map
+    node, sysfs = uio_tree(tmp_path, 0x1000)
+    expected = UioMap(device="uio2", name="stereogest", addr=0xFF200000, size=0x1000, offset=0)
+    assert read_uio_map(str(node), str(sysfs)) == expected
+    link = tmp_path / "stereogest"                  # a udev symlink resolves to uio2
+    link.symlink_to(node)
+    assert read_uio_map(str(link), str(sysfs)) == expected
+    assert read_uio_map(str(tmp_path / "uio7"), str(sysfs)) is None
+
+
+@pytest.mark.parametrize("size,span", [(0x1000, 0x1000), (0x2000, 0x1000), (0x800, 0x800),
+                                       (0x22, 0x20)])
+def test_uio_bus_maps_at_most_the_map(tmp_path, size, span):
+    node, sysfs = uio_tree(tmp_path, size)
+    with UioBus(str(node), span=0x1000, need=REGISTER_SPAN, sysfs=str(sysfs)) as bus:
+        assert bus.span == span
+        bus.write32(span - 4, 0xA5A5A5A5)
+        with pytest.raises(ValueError, match="offset"):
+            bus.read32(span)
+    assert node.read_bytes()[span - 4:span] == b"\xa5" * 4
+
+
+def test_uio_bus_honours_the_map_offset(tmp_path):
+    node, sysfs = uio_tree(tmp_path, 0x100, offset=0x40)
+    with UioBus(str(node), span=0x1000, sysfs=str(sysfs)) as bus:
+        bus.write32(CONTROL, 0x21)
+        assert bus.span == 0x100
+    assert node.read_bytes()[0x40 + CONTROL] == 0x21
+
+
+def test_uio_bus_map_smaller_than_needed_is_one_clear_error(tmp_path):
+    node, sysfs = uio_tree(tmp_path, 0x20)
+    with pytest.raises(BusError) as error:
+        UioBus(str(node), span=0x1000, need=0x10C, sysfs=str(sysfs))
+    message = str(error.value)
+    assert "\n" not in message and str(node) in message
+    assert "is 0x20 bytes" in message and "maps/map0/size" in message and "0x10c" in message
+    assert "reg = <0xff200000 0x1000>" in message
+
+
+def test_uio_bus_without_a_map(tmp_path):
+    node, sysfs = uio_tree(tmp_path, None)
+    with pytest.raises(BusError, match=r"maps/map0/size missing.*reg = <0xff200000 0x1000>"):
+        UioBus(str(node), sysfs=str(sysfs))
+
+
+def test_uio_bus_refused_mapping_names_the_reg(tmp_path, monkeypatch):
+    """Newer kernels refuse to map a UIO map smaller than a page (EINVAL)."""
+    import errno
+    node, sysfs = uio_tree(tmp_path, 0x20)
+
+    def refuse(*args, **kwargs):
+        raise OSError(errno.EINVAL, "Invalid argument")
+    monkeypatch.setattr(bus_module.mmap, "mmap", refuse)
+    with pytest.raises(BusError) as error:
+        UioBus(str(node), span=0x1000, need=0x20, sysfs=str(sysfs))
+    message = str(error.value)
+    assert "Invalid argument" in message and "less than a page" in message
+    assert "reg = <0xff200000 0x1000>" in message
+
+
+def test_uio_bus_rejects_a_bad_need(tmp_path):
+    node, sysfs = uio_tree(tmp_path, 0x1000)
+    with pytest.raises(ValueError, match="need"):
+        UioBus(str(node), need=-4, sysfs=str(sysfs))

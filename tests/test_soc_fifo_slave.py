@@ -14,8 +14,11 @@ from amaranth.sim import Simulator
 
 from verif.cocotb_run import run_cocotb
 from soc.fifo_slave import FifoSlave
-from sw_hps.fifo import (CONTROL, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO, DATA_MASK, DATO_X,
-                         DATO_Y, FIFO_DEPTH, LONGITUD_X, LONGITUD_Y)
+from soc.hps_interface import decode_version
+from sw_hps.fifo import (CONTROL, CORE_MAGIC, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
+                         CTRL_NO_GESTURE, DATA_MASK, DATO_X, DATO_Y, FIFO_DEPTH, ID, LONGITUD_X,
+                         LONGITUD_Y, REGISTER_SPAN, RESERVED, VERSION)
+from sw_hps.simulated import SimulatedFifoPeripheral
 
 TB_DIR = Path(__file__).resolve().parent / "cocotb"
 TOP = "fifo_slave"
@@ -23,8 +26,8 @@ PORTS = {"clk", "rst", "bus__address", "bus__read", "bus__write", "bus__writedat
          "bus__readdata", "i_stream__valid", "i_stream__payload", "go", "gesture", "full"}
 
 
-def emit(depth: int, data_bits: int = 18) -> str:
-    dut = FifoSlave(data_bits=data_bits, depth=depth)
+def emit(depth: int, data_bits: int = 18, **frame) -> str:
+    dut = FifoSlave(data_bits=data_bits, depth=depth, **frame)
     return verilog.convert(dut, name=TOP, ports=dut.ports(), emit_src=False)
 
 
@@ -41,9 +44,11 @@ def test_emitted_ports():
 
 
 def test_small_depth_cocotb():
-    """Register map, same-cycle access and push, 1500 random steps vs the model."""
-    run_cocotb(emit(8), TOP, "tb_fifo_slave", TB_DIR,
-               extra_env={"FIFO_DEPTH": 8, "DATA_BITS": 18},
+    """Register map, same-cycle access and push, 1500 random steps vs the model
+    (built at a frame size other than the default, which Version reports)."""
+    run_cocotb(emit(8, frame_width=96, frame_height=64), TOP, "tb_fifo_slave", TB_DIR,
+               extra_env={"FIFO_DEPTH": 8, "DATA_BITS": 18, "FRAME_WIDTH": 96,
+                          "FRAME_HEIGHT": 64},
                testcase=["register_map", "same_cycle", "random_against_model"])
 
 
@@ -94,6 +99,70 @@ def test_full_depth_amaranth_sim():
     assert seen["after"] == (0, 0, CTRL_GO | CTRL_FIFO_FULL)
 
 
+def read_after_writes(dut, offsets):
+    """Under Amaranth's simulator: every word of ``offsets`` read after reset,
+    then each written with all ones (and Control with 0 again), then read again."""
+    bus = dut.bus
+    seen = {}
+
+    async def testbench(ctx):
+        async def read(offset):
+            ctx.set(bus.address, offset // 4)
+            ctx.set(bus.read, 1)
+            await ctx.tick()
+            ctx.set(bus.read, 0)
+            return ctx.get(bus.readdata)
+
+        async def write(offset, value):
+            ctx.set(bus.address, offset // 4)
+            ctx.set(bus.writedata, value)
+            ctx.set(bus.write, 1)
+            await ctx.tick()
+            ctx.set(bus.write, 0)
+
+        seen["before"] = [await read(offset) for offset in offsets]
+        for offset in offsets:
+            await write(offset, 0xFFFFFFFF)
+            if offset == CONTROL:
+                await write(CONTROL, 0)
+        seen["after"] = [await read(offset) for offset in offsets]
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(testbench)
+    sim.run()
+    return seen["before"], seen["after"]
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(),
+    dict(depth=8, frame_width=32, frame_height=16),
+    dict(depth=65536, frame_width=1024, frame_height=1024),
+    dict(depth=2, frame_width=98, frame_height=61),      # sizes round up to 8 pixels
+])
+def test_id_and_version_read_the_model_values(kwargs):
+    """ID and Version read bit for bit what SimulatedFifoPeripheral built with
+    the same parameters reads, after reset and after writes of all ones to every
+    word (they ignore them); the other words read as the model's too."""
+    dut = FifoSlave(**kwargs)
+    model = SimulatedFifoPeripheral(**kwargs)        # the same parameter names
+    offsets = list(range(0, REGISTER_SPAN, 4))
+    before, after = read_after_writes(dut, offsets)
+    expected = [model.read32(offset) for offset in offsets]
+    assert before == expected
+    for offset in offsets:
+        model.write32(offset, 0xFFFFFFFF)
+        if offset == CONTROL:
+            model.write32(CONTROL, 0)
+    assert after == [model.read32(offset) for offset in offsets] == expected
+    assert before[ID // 4] == CORE_MAGIC
+    assert before[CONTROL // 4] == CTRL_NO_GESTURE and before[RESERVED // 4] == 0
+    decoded = decode_version(before[VERSION // 4])
+    assert decoded["fifo_depth"] == dut.depth and decoded["streaming"]
+    assert decoded["frame_width"] == -(-kwargs.get("frame_width", 640) // 8) * 8
+    assert decoded["frame_height"] == -(-kwargs.get("frame_height", 480) // 8) * 8
+
+
 @pytest.mark.parametrize("kwargs, name", [
     (dict(data_bits=0), "data_bits"),
     (dict(data_bits=32), "data_bits"),
@@ -103,6 +172,10 @@ def test_full_depth_amaranth_sim():
     (dict(depth=131072), "depth"),
     (dict(depth=500), "depth"),
     (dict(depth="512"), "depth"),
+    (dict(frame_width=0), "frame_width"),
+    (dict(frame_width=2041), "frame_width"),
+    (dict(frame_height=640.0), "frame_height"),
+    (dict(frame_height=None), "frame_height"),
 ])
 def test_bad_parameters(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name} must be"):

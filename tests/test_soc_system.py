@@ -136,6 +136,26 @@ def test_uart_link_bytes_reach_the_tx_pin():
     assert decode_uart(edges) == data
 
 
+def test_identification_registers_over_the_bridge():
+    """ID and Version read over the simulated lightweight bridge: the magic and
+    the parameters the core was built with (its 32 x 16 frames, the board's FIFO
+    depth, the streaming mode), as the driver's identify() decodes them."""
+    from soc.hps_interface import CORE_MAGIC, FIFO_DEPTH, ID, VERSION, version_word
+    from sw_hps.fifo import FifoPeripheral
+    left, right = small_frames(1, W, H)
+    with VerilatorSystem(left, right, SMALL) as system:
+        bus = SystemBus(system)
+        words = bus.read32(ID), bus.read32(VERSION)
+        bus.write32(ID, 0)                             # read-only: ignored
+        bus.write32(VERSION, 0)
+        identity = FifoPeripheral(bus).identify()
+    assert words == (CORE_MAGIC, version_word(fifo_depth=FIFO_DEPTH, streaming=True,
+                                              frame_width=W, frame_height=H))
+    assert (identity.magic, identity.version_word) == words
+    assert identity.supported and (identity.frame_width, identity.frame_height) == (W, H)
+    assert identity.fifo_depth == FIFO_DEPTH and identity.streaming
+
+
 def test_streaming_mode_pushes_every_frame():
     """Control = GO | STREAM (issue 28): the Verilated core pushes every frame's
     record, with the spotting flag and the hand-present bit above the data,

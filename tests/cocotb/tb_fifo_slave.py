@@ -2,8 +2,9 @@
 Tables 12-13), driven through cocotbext-avalon's Avalon-MM master.
 
 Run by ``tests/test_soc_fifo_slave.py`` (``verif.cocotb_run.run_cocotb``); the
-environment gives the build's parameters: ``FIFO_DEPTH``, ``DATA_BITS`` and the
-seed of the randomized test ``TB_SEED``.
+environment gives the build's parameters: ``FIFO_DEPTH``, ``DATA_BITS``,
+``FRAME_WIDTH`` and ``FRAME_HEIGHT`` (reported by Version) and the seed of the
+randomized test ``TB_SEED``.
 
 The golden model is :class:`sw_hps.simulated.SimulatedFifoPeripheral`; a bus
 access and a push in the same clock cycle are applied to it as ``read32`` /
@@ -20,17 +21,22 @@ from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge
 from cocotbext.avalon import AvalonMMBus, AvalonMMMasterBFM
 
 from soc.avalon import READ_LATENCY
-from sw_hps.fifo import (CONTROL, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL, CTRL_GO,
-                         CTRL_NO_GESTURE, CTRL_STREAM, DATO_X, DATO_Y, LONGITUD_X, LONGITUD_Y,
-                         RESERVED)
+from sw_hps.fifo import (CONTROL, CORE_MAGIC, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO_FULL,
+                         CTRL_GO, CTRL_NO_GESTURE, CTRL_STREAM, DATO_X, DATO_Y, ID, LONGITUD_X,
+                         LONGITUD_Y, REGISTER_SPAN, RESERVED, VERSION, CoreIdentity)
 from sw_hps.simulated import SimulatedFifoPeripheral
 
 DEPTH = int(os.environ.get("FIFO_DEPTH", "8"))
 DATA_BITS = int(os.environ.get("DATA_BITS", "18"))
+FRAME = dict(frame_width=int(os.environ.get("FRAME_WIDTH", "640")),
+             frame_height=int(os.environ.get("FRAME_HEIGHT", "480")))
 SEED = int(os.environ.get("TB_SEED", "7413"))
 DATA_MASK = (1 << DATA_BITS) - 1
-#: Byte offsets the 3-bit word address reaches (0x18, 0x1C lie outside the map).
-ALL_OFFSETS = tuple(range(0, 0x20, 4))
+#: Byte offsets the 3-bit word address reaches: the whole map, ID and Version
+#: at 0x18 and 0x1C included.
+ALL_OFFSETS = tuple(range(0, REGISTER_SPAN, 4))
+#: Words that read constants: ID and Version.
+CONSTANT_WORDS = {ID: CORE_MAGIC, VERSION: SimulatedFifoPeripheral(DEPTH, **FRAME).version}
 
 #: Edges the master waits after the edge that took the read before sampling
 #: readdata (the slave has no readdatavalid). Right after ``await RisingEdge``
@@ -108,12 +114,19 @@ async def register_map(dut):
     await h.start()
     assert DEPTH <= 64, "this test fills the FIFO; build it with a small depth"
 
-    # After reset: GO 0, gesture bit 1 (no gesture), everything else 0.
+    # After reset: GO 0, gesture bit 1 (no gesture), ID and Version their
+    # constants, everything else 0.
     assert await h.read(CONTROL) == CTRL_NO_GESTURE
     for offset in ALL_OFFSETS:
         if offset != CONTROL:
-            assert await h.read(offset) == 0, f"offset {offset:#x} after reset"
+            assert await h.read(offset) == CONSTANT_WORDS.get(offset, 0), \
+                f"offset {offset:#x} after reset"
     assert await h.outputs() == (0, 0, 0)
+    # The driver's reading of them: this build's parameters.
+    identity = CoreIdentity.decode(await h.read(ID), await h.read(VERSION))
+    assert identity.supported and (identity.fifo_depth, identity.frame_width,
+                                   identity.frame_height) == \
+        (DEPTH, -(-FRAME["frame_width"] // 8) * 8, -(-FRAME["frame_height"] // 8) * 8)
 
     # GO and STREAM are R/W; FIFO-CLR reads 0; RO bits and bits 31:6 ignore writes.
     await h.write(CONTROL, CTRL_GO)
@@ -143,11 +156,13 @@ async def register_map(dut):
     assert await h.read(LONGITUD_X) == 1 and await h.read(LONGITUD_Y) == 1
     assert await h.read(CONTROL) == CTRL_GO | CTRL_FIFO_DATA
     assert await h.outputs() == (1, 1, 0)
-    # Writes to Dato_*, Longitud_*, reserved and words 6, 7 are ignored.
+    # Writes to Dato_*, Longitud_*, reserved, ID and Version are ignored.
     for offset in ALL_OFFSETS:
         if offset != CONTROL:
             await h.write(offset, 0xFFFFFFFF)
     assert await h.read(RESERVED) == 0
+    for offset, value in CONSTANT_WORDS.items():
+        assert await h.read(offset) == value, f"offset {offset:#x} after a write"
     assert await h.read(LONGITUD_X) == 1 and await h.read(LONGITUD_Y) == 1
     # Pops are independent; an empty FIFO reads 0 and pops nothing.
     assert await h.read(DATO_X) == DATA_MASK
@@ -224,7 +239,7 @@ async def same_cycle(dut):
     """A bus access and a push in one cycle: both take effect, the access first."""
     h = Harness(dut)
     await h.start()
-    model = SimulatedFifoPeripheral(depth=DEPTH)
+    model = SimulatedFifoPeripheral(depth=DEPTH, **FRAME)
 
     async def check(bus_access, model_access, frame):
         got = await h.together(bus_access, frame)
@@ -278,7 +293,7 @@ async def random_against_model(dut):
     await h.start()
     rng = random.Random(SEED)
     dut._log.info("seed %d, depth %d", SEED, DEPTH)
-    model = SimulatedFifoPeripheral(depth=DEPTH)
+    model = SimulatedFifoPeripheral(depth=DEPTH, **FRAME)
     reads = pushes = drops = together = 0
 
     def random_frame():
