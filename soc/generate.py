@@ -39,6 +39,7 @@ from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfac
     system_tcl, verilog_ports
 
 __all__ = ["generate", "check_out_dir", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
+           "RBF", "RBF_COMPRESSED", "CONFIGURATION_SCHEME",
            "is_bundle", "GrayCrossing", "async_fifo_crossings", "sdc_constraints",
            "pll_clock_name", "OV5642_DVP", "ADV7123", "SYSTEM_INSTANCE"]
 
@@ -48,6 +49,15 @@ CORE_FILE = "stereogest_core.v"
 HW_TCL = "stereogest_core_hw.tcl"
 SYSTEM_TCL = "soc_system.tcl"
 BUILD_SCRIPT = "quartus_build.sh"
+#: Configuration scheme of the project: the HPS's FPGA manager feeds the bitstream
+#: by fast passive parallel (x16 or x32, as the MSEL pins say; the .rbf is the same).
+CONFIGURATION_SCHEME = "PASSIVE PARALLEL X16"
+#: The bitstreams for the HPS: ``quartus_asm`` writes the uncompressed one (the
+#: .qsf's GENERATE_RBF_FILE), the build script converts the .sof to the compressed
+#: one (``quartus_cpf -o bitstream_compression=on``); which one loads depends on
+#: the MSEL pins (docs/bring-up.md).
+RBF = f"{PROJECT}.rbf"
+RBF_COMPRESSED = f"{PROJECT}_compressed.rbf"
 #: File that marks a directory as a stereogest bundle.
 MARKER = "stereogest-bundle.json"
 #: Amaranth's build scripts (they run only quartus_map..sta, not the whole flow) and its
@@ -261,6 +271,13 @@ def _qsf_settings() -> str:
         "set_global_assignment -name OPTIMIZE_MULTI_CORNER_TIMING ON",
         "# metastability report for the synchronisers between the unrelated clocks",
         "set_global_assignment -name SYNCHRONIZER_IDENTIFICATION AUTO",
+        "# the HPS configures the FPGA (U-Boot 'fpga load', Linux's FPGA manager) by fast",
+        "# passive parallel; quartus_asm writes the uncompressed .rbf (GENERATE_RBF_FILE,",
+        f"# above) for the MSEL settings without compression, {BUILD_SCRIPT} also a",
+        f"# compressed one, {RBF_COMPRESSED}, for those with (the DE1-SoC's SW10)",
+        f'set_global_assignment -name STRATIXV_CONFIGURATION_SCHEME "{CONFIGURATION_SCHEME}"',
+        "set_global_assignment -name ON_CHIP_BITSTREAM_DECOMPRESSION OFF",
+        "set_global_assignment -name USE_CONFIGURATION_DEVICE OFF",
         "# the camera PCLK pins are not dedicated clock inputs: put each PCLK on a",
         "# global clock network (the fitter warns about the non-dedicated pin)",
     ]
@@ -517,7 +534,8 @@ def _build_script() -> str:
 # Cyclone V support) and its Platform Designer tools on PATH.
 set -e
 cd "$(dirname "$0")"
-for tool in qsys-script qsys-generate quartus_map quartus_sta quartus_fit quartus_asm; do
+for tool in qsys-script qsys-generate quartus_map quartus_sta quartus_fit quartus_asm \\
+        quartus_cpf; do
     command -v "$tool" >/dev/null 2>&1 || {{
         echo "$tool not found: put Quartus's bin directories on PATH" >&2; exit 1; }}
 done
@@ -532,7 +550,11 @@ quartus_map --read_settings_files=on --write_settings_files=off {PROJECT} -c {PR
 quartus_fit --read_settings_files=on --write_settings_files=off {PROJECT} -c {PROJECT}
 quartus_asm {PROJECT} -c {PROJECT}
 quartus_sta {PROJECT} -c {PROJECT}
-echo "done: {PROJECT}.sof and {PROJECT}.rbf"
+# quartus_asm wrote {RBF} (uncompressed); the compressed bitstream for MSEL
+# settings with compression (e.g. 01010, FPP x32)
+quartus_cpf -c -o bitstream_compression=on {PROJECT}.sof {RBF_COMPRESSED}
+echo "done: {PROJECT}.sof (JTAG), {RBF} (MSEL without compression) and {RBF_COMPRESSED}"
+echo "(MSEL with compression); loading them: BRINGUP.md of the board bundle"
 """
 
 
@@ -596,17 +618,26 @@ in this directory (`sh {BUILD_SCRIPT}` runs steps 1-4):
    `quartus_sta -t {pins} {PROJECT}`,
    then `quartus_map` once more so the project is compiled with those settings.
 4. Fit, assemble, time: `quartus_fit {PROJECT} -c {PROJECT}`,
-   `quartus_asm {PROJECT} -c {PROJECT}`, `quartus_sta {PROJECT} -c {PROJECT}`.
-   Out come `{PROJECT}.sof` and `{PROJECT}.rbf`.
-5. Program over the USB-Blaster (the FPGA is the second device of the JTAG
-   chain, after the HPS): `quartus_pgm -m jtag -o "p;{PROJECT}.sof@2"`.
-   Or load `{PROJECT}.rbf` from the board's Linux through its FPGA manager.
-6. On the board's Linux, release the lightweight bridge if the boot did not
-   (e.g. U-Boot `bridge enable`), then start the application as root:
+   `quartus_asm {PROJECT} -c {PROJECT}`, `quartus_sta {PROJECT} -c {PROJECT}`,
+   then `quartus_cpf -c -o bitstream_compression=on {PROJECT}.sof {RBF_COMPRESSED}`.
+   Out come `{PROJECT}.sof` (JTAG), `{RBF}` (uncompressed) and `{RBF_COMPRESSED}`;
+   the project configures by fast passive parallel, as the HPS does.
+5. Program the FPGA: over the USB-Blaster (the FPGA is the second device of the
+   JTAG chain, after the HPS) `quartus_pgm -m jtag -o "p;{PROJECT}.sof@2"`, or
+   from the board: the `.rbf` whose compression matches the MSEL switches
+   (`python3 -m sw_hps --check` prints them; `{RBF}` for MSEL 00000 or 00100,
+   `{RBF_COMPRESSED}` for 01010 and the other settings with compression), loaded
+   by U-Boot (`fatload` + `fpga load`) or Linux's FPGA manager.
+6. Enable the lightweight HPS-to-FPGA bridge (U-Boot `bridge enable`, older
+   U-Boot `run bridge_enable_handoff`, or from Linux), check with
+   `python3 -m sw_hps --check`, then start the application as root:
 
        python3 -m sw_hps --model model.json --bus devmem --robot uart
 
-   (`make hps-bundle` in the repository packs `sw_hps` with a model file.)
+The commands of steps 5 and 6 for each U-Boot and kernel generation, the uio
+device and the service are in the bring-up guide: `docs/bring-up.md` in the
+repository, `BRINGUP.md` in the board bundle (`make hps-bundle` packs `sw_hps`
+with a model file).
 
 The HPS is set up as Terasic's DE1-SoC reference design (SD card, Ethernet,
 USB, UART0 console, QSPI, SPI, I2C, GPIO on their HPS pins; the board's 1 GB

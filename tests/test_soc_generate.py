@@ -198,6 +198,44 @@ def test_qsf_puts_each_pclk_on_a_global_clock(files):
     assert "not dedicated clock inputs" in (ROOT / "boards" / "README.md").read_text()
 
 
+def test_qsf_and_build_script_make_the_rbf_the_hps_loads(bundle, files, tmp_path):
+    """The HPS's FPGA manager configures by fast passive parallel; the .rbf's
+    compression must match the MSEL switches, so both are built, and the README
+    and the bring-up guide name the same files."""
+    globals_ = {}
+    for args in calls_of(run_tcl(files["stereogest.qsf"], QSF), "set_global_assignment"):
+        globals_.setdefault(args[1], []).append(args[2])
+    assert globals_["GENERATE_RBF_FILE"] == ["ON"]          # quartus_asm writes stereogest.rbf
+    assert globals_["STRATIXV_CONFIGURATION_SCHEME"] == ["PASSIVE PARALLEL X16"]
+    assert globals_["ON_CHIP_BITSTREAM_DECOMPRESSION"] == ["OFF"]
+
+    # the build script with every Quartus tool replaced by one that logs its arguments
+    work = tmp_path / "bundle"
+    shutil.copytree(bundle.out_dir, work)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("qsys-script", "qsys-generate", "quartus_map", "quartus_sta", "quartus_fit",
+                 "quartus_asm", "quartus_cpf"):
+        (bin_dir / tool).write_text('#!/bin/sh\necho "$(basename "$0") $*" >> calls.log\n')
+        (bin_dir / tool).chmod(0o755)
+    done = subprocess.run(["sh", gen.BUILD_SCRIPT], cwd=work, capture_output=True, text=True,
+                          env={"PATH": f"{bin_dir}:/usr/bin:/bin"}, timeout=60)
+    assert done.returncode == 0, done.stderr
+    calls = (work / "calls.log").read_text().splitlines()
+    assert calls[-1] == (f"quartus_cpf -c -o bitstream_compression=on stereogest.sof "
+                         f"{gen.RBF_COMPRESSED}")
+    assert calls.index("quartus_asm stereogest -c stereogest") < len(calls) - 1
+    assert gen.RBF in done.stdout and gen.RBF_COMPRESSED in done.stdout
+
+    readme = files["README.md"]
+    guide = (ROOT / "docs" / "bring-up.md").read_text()
+    for text in (readme, guide):
+        for word in (gen.RBF, gen.RBF_COMPRESSED, "python3 -m sw_hps --check", "fpga load",
+                     "bridge enable", "bridge_enable_handoff", "01010", "00000"):
+            assert word in text, word
+    assert "docs/bring-up.md" in readme and "BRINGUP.md" in readme
+
+
 # ---- .sdc -----------------------------------------------------------------------------
 
 def port_bits(ports):
