@@ -59,15 +59,25 @@ model: $(STAMP)
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
 		--emission discrete --continuous
 
-hps-bundle: $(STAMP)
-	$(BIN)/python -m sw_hps.bundle --model $(MODEL) -o $(BUNDLE)
+# The standard library is enough to pack the bundle (the system Python; the
+# model is fully checked when numpy is importable, else on the board at start).
+hps-bundle:
+	$(PYTHON) -m sw_hps.bundle --model $(MODEL) -o $(BUNDLE)
 
-deploy: hps-bundle
-	@test -n "$(HPS)" || { echo "usage: make deploy HPS=user@host" >&2; exit 2; }
-	scp $(BUNDLE) $(HPS):stereogest-hps.tar.gz
-	ssh $(HPS) 'mkdir -p stereogest && tar xzf stereogest-hps.tar.gz -C stereogest'
-	@echo "Start it on the board:"
-	@echo "  ssh $(HPS) 'cd stereogest && sudo python3 -m sw_hps --model model.json --bus devmem --robot serial:/dev/ttyUSB0'"
+# make deploy HPS=user@host [HPS_DIR=stereogest]: upload the bundle to the
+# login's home, then the bundle's install.sh swaps a fresh tree in at HPS_DIR
+# (relative to that home, or absolute). OpenSSH 9+ scp speaks SFTP, which
+# dropbear-based images lack: then it retries with the legacy protocol (-O).
+HPS_DIR ?= stereogest
+HPS_TARBALL := stereogest-hps.tar.gz
+
+deploy:
+	@test -n "$(HPS)" || { echo "make deploy: HPS=user@host is required (the board's ssh login, e.g. HPS=root@de1soc)" >&2; exit 2; }
+	@case "$(HPS_DIR)" in ''|*[!A-Za-z0-9._/+-]*) echo "make deploy: HPS_DIR must be a path of letters, digits and . _ / + -, got '$(HPS_DIR)'" >&2; exit 2;; esac
+	@$(MAKE) --no-print-directory hps-bundle
+	scp $(BUNDLE) $(HPS):$(HPS_TARBALL) || { echo "scp failed; retrying with scp -O (servers without SFTP, e.g. dropbear)" >&2; scp -O $(BUNDLE) $(HPS):$(HPS_TARBALL); }
+	ssh $(HPS) 't=$$(mktemp "$${TMPDIR:-/tmp}/stereogest-install.XXXXXX") && tar -xzOf $(HPS_TARBALL) install.sh >"$$t" && sh "$$t" $(HPS_TARBALL) $(HPS_DIR); s=$$?; rm -f "$$t"; exit $$s'
+	@$(PYTHON) -m sw_hps.bundle --next-steps $(HPS) --dir $(HPS_DIR)
 
 clean:
 	rm -rf $(VENV) demo-out build .pytest_cache *.egg-info

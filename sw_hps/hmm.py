@@ -44,18 +44,13 @@ from pathlib import Path
 import numpy as np
 
 from .continuous import check_spotting
+# The file's identity lives in a standard-library module: the bundle checks it
+# on a machine without numpy.
+from .model_format import EMISSIONS, MODEL_FORMAT, MODEL_VERSION, MODEL_VERSIONS
 
 __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM",
            "GestureModels", "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
            "save_models"]
-
-MODEL_FORMAT = "stereogest-hmm"
-#: Version written; 1 (discrete, no rejection) and 2 (no spotting) are still read.
-MODEL_VERSION = 3
-#: Versions read.
-MODEL_VERSIONS = (1, 2, 3)
-#: Emission models a model file may hold.
-EMISSIONS = ("discrete", "gaussian")
 _ROW_TOLERANCE = 1e-6
 #: Symbols between rescalings of the forward vector in ForwardStream.feed.
 _RESCALE_EVERY = 4

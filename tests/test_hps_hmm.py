@@ -7,9 +7,9 @@ from sw_hps.hmm import DiscreteHMM, ForwardStream
 
 
 def banded(rng, n, m, tiny):
-    a = np.triu(rng.random((n, n))) * (np.subtract.outer(np.arange(n), np.arange(n)) >= -1)
+    a = np.triu(rng.random_sample((n, n))) * (np.subtract.outer(np.arange(n), np.arange(n)) >= -1)
     a /= a.sum(axis=1, keepdims=True)
-    b = rng.random((n, m)) + tiny
+    b = rng.random_sample((n, m)) + tiny
     b[:, ::2] = tiny          # half the symbols nearly impossible
     b /= b.sum(axis=1, keepdims=True)
     return DiscreteHMM(np.eye(n)[0], a, b)
@@ -17,9 +17,9 @@ def banded(rng, n, m, tiny):
 
 @pytest.mark.parametrize("tiny", [1e-3, 1e-30, 1e-70])
 def test_feed_equals_updates(tiny):
-    rng = np.random.default_rng(3)
+    rng = np.random.RandomState(3)   # legacy stream: same draws on the board's numpy 1.16
     models = [banded(rng, n, 8, tiny) for n in (2, 5, 7)]
-    seq = rng.integers(0, 8, 1000)
+    seq = rng.randint(0, 8, 1000)
     by_update = ForwardStream(models)
     for s in seq:
         by_update.update(int(s))
@@ -29,7 +29,7 @@ def test_feed_equals_updates(tiny):
 
 
 def test_feed_continues_a_stream_and_keeps_impossible_models_impossible():
-    rng = np.random.default_rng(4)
+    rng = np.random.RandomState(4)
     b = np.full((3, 8), 1 / 7)
     b[:, 0] = 0.0             # symbol 0 impossible for this model
     models = [banded(rng, 3, 8, 1e-3), DiscreteHMM(np.eye(3)[0], np.eye(3), b)]
