@@ -75,10 +75,35 @@ FIFOs receive until the gesture bit reads 1 ("no gesture").
   flagged and no pair (e.g. one FIFO holds an entry the other lacks) the FIFOs are
   cleared without a result; one warning when the fault appears, then at most once
   per ``heartbeat`` while it lasts (each poll clears again).
+* Bus fault: a read no working core gives (:mod:`sw_hps.busfault`): Control with a
+  bit of [31:6] set (all ones, e.g. a bridge with no slave behind it), GO not reading
+  back after S0 set it or reading 0 later (all zeros: the core in reset or not there;
+  or another program cleared it), STREAM set although S0 wrote 0, or Longitud_X /
+  Longitud_Y above :data:`~soc.hps_interface.FIFO_DEPTH` (read twice). The gesture
+  in progress is dropped; one warning names the reads, the ID register and the
+  likely cause (bridge disabled or in reset, FPGA not configured, core in reset)
+  and points to ``python -m sw_hps --check``. Then the registers are only probed
+  (Control, Longitud_X/Y, ID; no writes), the sleep between two probes doubling
+  from ``poll_interval`` up to ``max_fault_interval``, with a reminder at most once
+  per ``heartbeat``. When the reads look sane again and ID reads
+  :data:`~soc.hps_interface.CORE_MAGIC`, S0 re-initialises the core (FIFO-CLR and
+  GO); once GO reads back, one INFO line ends the fault. Counted in ``bus_faults``
+  (also in the "alive" line). A bus fault that returns within a heartbeat of the
+  last line keeps the back-off and logs nothing new until a reminder is due.
 * Any exception inside one step (bus error, bad value) is logged, the partial gesture
   is dropped, and after a back-off (doubling from ``initial_backoff`` up to
   ``max_backoff``; back to the minimum after :data:`HEALTHY_STEPS` error-free steps)
-  the machine restarts at S0.
+  the machine restarts at S0. Once the back-off is at ``max_backoff``, the same
+  error again is logged at most once per ``heartbeat`` (one minute if off), with
+  the number of repeats left out.
+* A bus error the CPU takes as a signal (SIGBUS) ends the process; ``python -m
+  sw_hps`` runs the application in a supervised child process for the mapped buses
+  (:mod:`sw_hps.guard`), which logs one line and exits with status 1.
+
+The loop never spins: a step with nothing to do sleeps ``poll_interval``, a fault
+sleeps its back-off, and after :data:`~sw_hps.busfault.MAX_BUSY_STEPS` steps in a
+row without any sleep (each popped data or changed state) it sleeps one
+``poll_interval`` anyway.
 
 So the application is never silent for longer than about ``heartbeat`` seconds
 (with the heartbeat on): idle or reading, it logs the "alive" line; ignoring a
@@ -108,10 +133,13 @@ import numpy as np
 
 from .fifo import (DATA_BITS, DATA_MASK, FIFO_DEPTH, FRAC_BITS, FRAME_HEIGHT, FRAME_WIDTH,
                    FifoPeripheral, FifoStatus, from_fixed)
+from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFault,
+                       BusFaultWatch, RepeatFilter, control_fault, describe_bus, lengths_fault,
+                       read_id)
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
-from .robot import NullLink
-from .telegram import GESTURE_NAMES, hex_bytes, telegram
+from .robot import FAILED, NullLink, deliver_gesture
+from .telegram import GESTURE_NAMES, hex_bytes
 
 __all__ = ["State", "GestureResult", "GestureClassifier", "GestureApp", "DEFAULT_MIN_SYMBOLS",
            "DEFAULT_MAX_POINTS", "DEFAULT_GESTURE_TIMEOUT", "DEFAULT_HEARTBEAT",
@@ -180,7 +208,11 @@ class GestureResult:
     telegram : bytes or None
         Telegram sent for a recognised gesture (None if its class has none).
     sent : bool
-        Whether the link accepted the telegram.
+        Whether the link accepted the telegram's bytes.
+    delivery : str or None
+        What became of the telegram (:class:`sw_hps.robot.Delivery`):
+        ``"acknowledged"`` by the brick, ``"unconfirmed"`` or ``"failed"``;
+        None when nothing was sent.
     """
     outcome: str
     class_index: int = -1
@@ -192,6 +224,7 @@ class GestureResult:
     reason: str | None = None
     telegram: bytes | None = None
     sent: bool = False
+    delivery: str | None = None
 
     @property
     def recognised(self) -> bool:
@@ -205,7 +238,7 @@ class GestureResult:
                 "num_points": self.num_points, "num_symbols": self.num_symbols,
                 "reason": self.reason,
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
-                "sent": self.sent}
+                "sent": self.sent, "delivery": self.delivery}
 
 
 class GestureClassifier:
@@ -343,6 +376,9 @@ class GestureApp:
     clock : callable
         ``clock() -> seconds`` (monotonic) for the timeout and the heartbeat;
         injectable like ``sleep``.
+    max_fault_interval : float in (0, 60]
+        Longest sleep between two probes of the registers during a bus fault
+        (module docstring, Faults).
 
     Attributes
     ----------
@@ -351,6 +387,8 @@ class GestureApp:
     errors, faults, bad_points : int
         Exceptions recovered from, faults seen (module docstring; reminders not
         counted), points dropped for lying outside the frame.
+    bus_watch : sw_hps.busfault.BusFaultWatch
+        The bus faults: ``bus_faults`` of them so far.
     """
 
     def __init__(self, models: GestureModels, fifo: FifoPeripheral, link=None, *,
@@ -363,7 +401,8 @@ class GestureApp:
                  heartbeat: float | None = DEFAULT_HEARTBEAT,
                  max_bad_points: int = DEFAULT_MAX_BAD_POINTS,
                  frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic,
+                 max_fault_interval: float = MAX_FAULT_INTERVAL):
         check_models(models)
         for name, value in (("max_points", max_points), ("max_pairs_per_poll", max_pairs_per_poll)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -427,6 +466,14 @@ class GestureApp:
         self._stuck_reported = False
         # S1: clock of the last warning about a lasting idle fault (None: no fault).
         self._idle_fault_at: float | None = None
+        self.bus_watch = BusFaultWatch(
+            label="gesture loop", where=describe_bus(fifo.bus, fifo.base),
+            read_id=lambda: read_id(fifo), poll_interval=self.poll_interval,
+            max_interval=max_fault_interval, reminder=self.heartbeat, clock=clock, logger=log)
+        # Repeats of the same error at the capped back-off are logged once per reminder.
+        self._error_lines = RepeatFilter(self.heartbeat or FAULT_REMINDER, clock)
+        self._slept = False          # the current step slept
+        self._busy_steps = 0         # steps in a row without any sleep
 
     # ---- control ----------------------------------------------------------------
     def request_stop(self) -> None:
@@ -438,11 +485,17 @@ class GestureApp:
     def stopping(self) -> bool:
         return self._stop
 
+    @property
+    def bus_faults(self) -> int:
+        """Bus faults seen (module docstring, Faults)."""
+        return self.bus_watch.episodes
+
     def _pause(self, seconds: float) -> None:
         # Short slices so that a stop request ends a long back-off promptly.
         remaining = seconds
         while remaining > 0 and not self._stop:
             chunk = min(remaining, 0.1)
+            self._slept = True
             self._sleep(chunk)
             remaining -= chunk
 
@@ -471,10 +524,14 @@ class GestureApp:
                 if until is not None and until():
                     break
                 iterations += 1
+                self._slept = False
                 try:
                     self.step()
                 except KeyboardInterrupt:
                     raise
+                except BusFault as fault:
+                    self._healthy_steps = 0
+                    self._bus_fault(fault)
                 except Exception as exc:  # the loop must survive any fault
                     self._healthy_steps = 0
                     self._recover(exc)
@@ -482,6 +539,12 @@ class GestureApp:
                     self._healthy_steps += 1
                     if self._healthy_steps == HEALTHY_STEPS:
                         self.backoff = self.initial_backoff
+                # Never spin: a step that popped data or changed state needs no sleep,
+                # but a long run of them (a stuck FIFO data bit) still yields the CPU.
+                self._busy_steps = 0 if self._slept else self._busy_steps + 1
+                if self._busy_steps >= MAX_BUSY_STEPS:
+                    self._busy_steps = 0
+                    self._pause(self.poll_interval)
         except KeyboardInterrupt:
             log.info("interrupted; stopping")
         finally:
@@ -493,8 +556,11 @@ class GestureApp:
         self.errors += 1
         delay = self.backoff
         self.backoff = min(self.backoff * 2, self.max_backoff)
-        log.error("error in state %s: %s: %s; re-initialising in %.2f s", self.state.value,
-                  type(exc).__name__, exc, delay)
+        line = (f"error in state {self.state.value}: {type(exc).__name__}: {exc}; "
+                f"re-initialising in {delay:.2f} s")
+        left_out = self._error_lines.admit(line)
+        if left_out is not None:
+            log.error("%s%s", line, f" ({left_out} more like it not logged)" if left_out else "")
         log.debug("traceback of the error", exc_info=True)
         if self._pending is not None:
             self._finish(self._pending)  # decided before the fault: keep it
@@ -506,6 +572,20 @@ class GestureApp:
         self.classifier.reset()
         self.state = State.INIT
         self._pause(delay)
+
+    def _bus_fault(self, fault: BusFault) -> None:
+        """A step read what no working core gives: drop the gesture, back off, and
+        probe the registers until they look sane (module docstring, Faults)."""
+        if self._pending is not None:
+            self._finish(self._pending)  # decided before the fault: keep it
+        elif self.state in (State.READ, State.CLASSIFY):
+            self._finish(GestureResult("dropped", num_points=self.classifier.num_points,
+                                       num_symbols=self.classifier.num_symbols,
+                                       reason=f"bus fault: {fault}"))
+        self._pending = None
+        self.classifier.reset()
+        self.state = State.INIT
+        self._pause(self.bus_watch.fault(str(fault)))
 
     def shutdown(self) -> None:
         """Clear GO and close the link (errors logged, never raised)."""
@@ -522,27 +602,47 @@ class GestureApp:
     def step(self) -> None:
         """Execute the action of the current state once (may raise; :meth:`run`
         recovers)."""
+        if self.bus_watch.active and not self.bus_watch.recovering:
+            # A bus fault: only probe (no writes) until the reads look sane; S0 then
+            # re-initialises the core.
+            delay = self.bus_watch.probe(self.fifo)
+            if delay is not None:
+                self._pause(delay)
+            return
         action = {State.INIT: self._init, State.WAIT: self._wait, State.READ: self._read,
                   State.CLASSIFY: self._classify, State.SEND: self._send,
                   State.CLEAR: self._clear}[self.state]
         action()
 
+    def _status(self, *, just_set: bool = False) -> FifoStatus:
+        """Read the status; :class:`BusFault` if Control reads what no working core
+        gives while GO is set (``just_set``: S0 wrote it right before)."""
+        status = self.fifo.status()
+        problem = control_fault(status.control, stream=False, just_set=just_set)
+        if problem is not None:
+            raise BusFault(problem)
+        return status
+
     def _init(self) -> None:  # S0
         self.classifier.reset()
         self._pending = None
         self.fifo.clear(keep_running=True)
+        status = self._status(just_set=True)
+        recovered = self.bus_watch.active
+        self.bus_watch.confirm("FIFO-CLR, GO")
         # A gesture already flagged began before the clear: its start is lost.
-        self.discarding = self.fifo.status().gesture_active
+        self.discarding = status.gesture_active
         if self.discarding:
             self._start_discarding()
         if self._last_heartbeat is None:
             self._last_heartbeat = self._clock()  # the heartbeat counts from this line
-        log.info("S0: FIFO cleared, capture running%s",
-                 "; ignoring the gesture in progress" if self.discarding else "")
+        # After a bus fault the watch's line says it (a flapping bus must not flood).
+        log.log(logging.DEBUG if recovered else logging.INFO, "S0: FIFO cleared, capture "
+                "running%s", "; ignoring the gesture in progress" if self.discarding else "")
         self.state = State.WAIT
 
     def _wait(self) -> None:  # S1
-        status = self.fifo.status()
+        status = self._status()
         if self.discarding:
             if status.gesture_active:
                 self._watch_discarded(status)
@@ -552,7 +652,9 @@ class GestureApp:
                 return
             self._stop_discarding()
             if status.data or status.full:
+                # The discarded gesture's tail: nothing to read until the next poll.
                 self.fifo.clear(keep_running=True)
+                self._pause(self.poll_interval)
                 return
         if status.data or status.gesture_active:
             log.debug("S1: gesture started")
@@ -590,7 +692,7 @@ class GestureApp:
         done = self.outcomes
         return (f"gestures {done['recognised']} recognised, {done['rejected']} rejected, "
                 f"{done['dropped']} dropped; {self.errors} errors; {self.faults} faults "
-                f"({self.bad_points} points outside the frame)")
+                f"({self.bad_points} points outside the frame); {self.bus_watch.counters()}")
 
     def _start_discarding(self, *, stuck: bool = False) -> None:
         """Ignore the rest of the gesture in progress (until the gesture bit reads 1)."""
@@ -636,7 +738,8 @@ class GestureApp:
 
     def _check_lengths(self, status: FifoStatus) -> tuple[FifoStatus, str | None]:
         """``(status, None)`` if Longitud_X/Y are plausible (the status with lengths read
-        again if needed), else ``(status, reason)``."""
+        again if needed), else ``(status, reason)``; :class:`BusFault` if either
+        exceeds FIFO_DEPTH in both reads."""
         if self._lengths_agree(status.length_x, status.length_y):
             return status, None
         # A push between the two length reads makes them differ by one: read again.
@@ -644,12 +747,11 @@ class GestureApp:
         if self._lengths_agree(length_x, length_y):
             return dataclasses.replace(status, length_x=length_x, length_y=length_y), None
         reads = f"read twice: {status.length_x}/{status.length_y}, then {length_x}/{length_y}"
-        if length_x != length_y:
-            return status, (f"Longitud_X={length_x} and Longitud_Y={length_y} differ ({reads}; "
-                            "the FIFOs are pushed and popped together: misaligned or a bus "
-                            "fault)")
-        return status, (f"Longitud_X={length_x} and Longitud_Y={length_y} exceed "
-                        f"FIFO_DEPTH={FIFO_DEPTH} ({reads}; a bus fault)")
+        problem = lengths_fault(length_x, length_y)
+        if problem is not None:
+            raise BusFault(f"{problem} ({reads})")
+        return status, (f"Longitud_X={length_x} and Longitud_Y={length_y} differ ({reads}; "
+                        "the FIFOs are pushed and popped together: misaligned or a bus fault)")
 
     def _idle_fault(self, problem: str) -> None:
         """S1, no gesture, no pair: clear the FIFOs (FIFO-CLR also realigns them); warn
@@ -667,7 +769,7 @@ class GestureApp:
         self._pause(self.poll_interval)
 
     def _read(self) -> None:  # S2
-        status = self.fifo.status()
+        status = self._status()
         # A gesture lasts seconds; the heartbeat only shows if this one does not end.
         self._beat(f"reading a gesture (S2), {self.classifier.num_points} points so far")
         self._consume(status)
@@ -762,15 +864,12 @@ class GestureApp:
             log.warning("S4: class %r is not one of the robot's gestures %s; nothing sent",
                         result.class_name, list(GESTURE_NAMES))
             return
-        data = telegram(result.class_name)
-        try:
-            sent = bool(self.link.send(data))
-        except Exception as exc:  # a link must not raise; do not lose the result if it does
-            log.error("S4: robot link raised %s: %s", type(exc).__name__, exc)
-            sent = False
-        if not sent:
-            log.warning("S4: telegram %s for %r not delivered", hex_bytes(data), result.class_name)
-        self._pending = dataclasses.replace(result, telegram=data, sent=sent)
+        delivery = deliver_gesture(self.link, result.class_name)  # never raises
+        log.log(logging.WARNING if delivery.status == FAILED else logging.INFO,
+                "S4: telegram %s for %r %s", hex_bytes(delivery.telegram), result.class_name,
+                delivery.describe())
+        self._pending = dataclasses.replace(result, telegram=delivery.telegram,
+                                            sent=delivery.written, delivery=delivery.status)
 
     def _clear(self) -> None:  # S5
         result, self._pending = self._pending, None

@@ -26,7 +26,23 @@ spotting, which this mode replaces. FIFO-FULL (the loop fell more than
 :data:`~sw_hps.fifo.FIFO_DEPTH` frames behind) clears the FIFOs and flushes:
 the lost frames cannot be named. Faults of the bus or the link never end the
 loop: it logs one line and starts again after a back-off, as
-:class:`~sw_hps.app.GestureApp` does.
+:class:`~sw_hps.app.GestureApp` does (an error repeated at the capped back-off
+is logged at most once per :data:`~sw_hps.busfault.FAULT_REMINDER`).
+
+Bus faults (:mod:`sw_hps.busfault`) as in :mod:`sw_hps.app`: Control with a bit
+of [31:6] set (all ones), GO or STREAM not reading what the loop wrote (all
+zeros: core in reset or not there), Longitud_X / Longitud_Y above FIFO_DEPTH,
+or FIFO-FULL set right after FIFO-CLR cleared it (a stuck bit: filling the FIFO
+takes FIFO_DEPTH frames). What is pending is forgotten (its frames cannot be
+trusted); one warning names the reads and the likely cause, the registers are
+probed with a back-off doubling from ``poll_interval`` up to
+``max_fault_interval`` (a reminder at most once per
+:data:`~sw_hps.busfault.FAULT_REMINDER`), and once they look sane and ID reads
+CORE_MAGIC the stream restarts (FIFO-CLR, GO, STREAM) and one line says so.
+Counted in ``bus_faults``. The loop never spins: an empty poll sleeps
+``poll_interval``, a fault its back-off, and
+:data:`~sw_hps.busfault.MAX_BUSY_STEPS` busy steps in a row one
+``poll_interval``.
 """
 from __future__ import annotations
 
@@ -35,10 +51,14 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
+from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFault,
+                       BusFaultWatch, RepeatFilter, control_fault, describe_bus, lengths_fault,
+                       read_id)
 from .continuous import ContinuousRecogniser, Detection, step_pixels
 from .fifo import FRAC_BITS, FRAME_WIDTH
 from .orientation import DistanceSymbols
-from .telegram import GESTURE_NAMES, hex_bytes, telegram
+from .robot import FAILED, deliver_gesture
+from .telegram import GESTURE_NAMES, hex_bytes
 
 __all__ = ["StreamingApp", "StreamSpotter", "SpottedGesture", "check_streaming_models"]
 
@@ -67,7 +87,9 @@ class SpottedGesture:
     """A gesture named in the stream: class, the frames of its first and last
     symbol and the frame it was named at (frames counted from the stream's
     start), its score (log-likelihood above the threshold model), the telegram
-    (None if its class has none) and whether the link took it."""
+    (None if its class has none), whether the link took its bytes and what
+    became of it (``delivery``: see :class:`sw_hps.robot.Delivery`; None when
+    nothing was sent)."""
     class_index: int
     class_name: str
     first: int
@@ -76,12 +98,13 @@ class SpottedGesture:
     score: float
     telegram: bytes | None
     sent: bool
+    delivery: str | None = None
 
     def to_dict(self) -> dict:
         return {"name": self.class_name, "first": self.first, "last": self.last,
                 "named_at": self.named_at, "score": round(self.score, 3),
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
-                "sent": self.sent}
+                "sent": self.sent, "delivery": self.delivery}
 
 
 class StreamSpotter:
@@ -149,11 +172,23 @@ class StreamingApp:
         Width of the frames (scales ``step``).
     on_result : callable, optional
         Called with each :class:`SpottedGesture`.
+    clock : callable
+        ``clock() -> seconds`` (monotonic), for the bus faults' reminders and the
+        repeated errors.
+    max_fault_interval : float in (0, 60]
+        Longest sleep between two probes of the registers during a bus fault.
+
+    Attributes
+    ----------
+    lost, errors, bus_faults : int
+        FIFO-FULL events, exceptions recovered from, bus faults seen.
     """
 
     def __init__(self, models, fifo, link, *, sleep: Callable[[float], None] = time.sleep,
                  poll_interval: float = DEFAULT_POLL_INTERVAL, frame_width: int = FRAME_WIDTH,
-                 on_result: Callable[[SpottedGesture], None] | None = None):
+                 on_result: Callable[[SpottedGesture], None] | None = None,
+                 clock: Callable[[], float] = time.monotonic,
+                 max_fault_interval: float = MAX_FAULT_INTERVAL):
         self.spotter = StreamSpotter(models, frame_width)
         if not (isinstance(poll_interval, (int, float)) and 0 < poll_interval <= 1):
             raise ValueError(f"poll_interval must be in (0, 1] seconds, got {poll_interval!r}")
@@ -167,6 +202,14 @@ class StreamingApp:
         self._started = False
         self._stop = False
         self._backoff = INITIAL_BACKOFF
+        self.bus_watch = BusFaultWatch(
+            label="streaming", where=describe_bus(fifo.bus, fifo.base),
+            read_id=lambda: read_id(fifo), poll_interval=self.poll_interval,
+            max_interval=max_fault_interval, reminder=FAULT_REMINDER, clock=clock, logger=log)
+        self._error_lines = RepeatFilter(FAULT_REMINDER, clock)
+        self._just_started = False   # the next status is the first after FIFO-CLR
+        self._slept = False          # the current step slept
+        self._busy_steps = 0         # steps in a row without any sleep
 
     # ---- control ----------------------------------------------------------------
     def request_stop(self) -> None:
@@ -183,6 +226,15 @@ class StreamingApp:
         """Records taken since the stream (re)started."""
         return self.spotter.frames
 
+    @property
+    def bus_faults(self) -> int:
+        """Bus faults seen (module docstring)."""
+        return self.bus_watch.episodes
+
+    def _nap(self, seconds: float) -> None:
+        self._slept = True
+        self._sleep(seconds)
+
     def run(self, max_iterations: int | None = None,
             until: Callable[[], bool] | None = None) -> list[SpottedGesture]:
         """Poll and spot until stopped (or ``until()`` is true, or after
@@ -196,19 +248,33 @@ class StreamingApp:
                     break
                 iterations += 1
                 before = len(self.results)
+                self._slept = False
                 try:
                     self.step()
                     self._backoff = INITIAL_BACKOFF
                 except KeyboardInterrupt:
                     raise
+                except BusFault as fault:
+                    # Pending frames came from a bus now known to lie: forget them.
+                    self._started = False
+                    self._nap(self.bus_watch.fault(str(fault)))
                 except Exception as exc:  # the loop must survive any fault
                     self.errors += 1
                     delay, self._backoff = self._backoff, min(2 * self._backoff, MAX_BACKOFF)
-                    log.error("streaming: %s: %s; restarting the stream in %.2f s",
-                              type(exc).__name__, exc, delay)
+                    line = (f"streaming: {type(exc).__name__}: {exc}; restarting the stream "
+                            f"in {delay:.2f} s")
+                    left_out = self._error_lines.admit(line)
+                    if left_out is not None:
+                        log.error("%s%s", line,
+                                  f" ({left_out} more like it not logged)" if left_out else "")
                     self._started = False
-                    self._sleep(delay)
+                    self._nap(delay)
                 named += self.results[before:]
+                # Never spin: popping records needs no sleep, a long run of it does.
+                self._busy_steps = 0 if self._slept else self._busy_steps + 1
+                if self._busy_steps >= MAX_BUSY_STEPS:
+                    self._busy_steps = 0
+                    self._nap(self.poll_interval)
         except KeyboardInterrupt:
             log.info("interrupted; stopping")
         finally:
@@ -240,18 +306,39 @@ class StreamingApp:
         self.fifo.clear(keep_running=True, streaming=True)
         self.spotter.reset()
         self._started = True
-        log.info("streaming: GO and STREAM set, FIFOs cleared")
+        self._just_started = True
+        # After a bus fault the watch's line says it (a flapping bus must not flood).
+        log.log(logging.DEBUG if self.bus_watch.active else logging.INFO,
+                "streaming: GO and STREAM set, FIFOs cleared")
+
+    def _checked_status(self):
+        """The status, or :class:`BusFault` if it is what no working core gives."""
+        just_set, self._just_started = self._just_started, False
+        status = self.fifo.status()
+        problem = (control_fault(status.control, stream=True, just_set=just_set)
+                   or lengths_fault(status.length_x, status.length_y))
+        if problem is None and just_set and status.full:
+            problem = (f"Control reads {status.control:#010x}: FIFO-FULL set right after "
+                       "FIFO-CLR cleared it (filling a FIFO takes FIFO_DEPTH frames)")
+        if problem is not None:
+            raise BusFault(problem)
+        if just_set:
+            self.bus_watch.confirm("FIFO-CLR, GO, STREAM")
+        return status
 
     def step(self) -> None:
         """One poll: take every record the FIFOs hold, or sleep."""
+        if self.bus_watch.active and not self.bus_watch.recovering:
+            # A bus fault: only probe (no writes) until the reads look sane.
+            delay = self.bus_watch.probe(self.fifo)
+            if delay is not None:
+                self._nap(delay)
+            else:
+                self._started = False       # restart the stream on the next step
+            return
         if not self._started:
             self._start()
-        status = self.fifo.status()
-        if not (status.go and status.streaming):
-            log.warning("streaming: Control reads %#x (GO and STREAM expected); setting "
-                        "them again", status.control)
-            self._start()
-            return
+        status = self._checked_status()
         if status.full:
             self.lost += 1
             log.warning("streaming: FIFO-FULL (the loop fell %d frames behind); the lost "
@@ -262,7 +349,7 @@ class StreamingApp:
             return
         available = status.pairs_available
         if not available:
-            self._sleep(self.poll_interval)
+            self._nap(self.poll_interval)
             return
         for _ in range(available):
             x, y, _flag, present = self.fifo.pop_record()
@@ -271,23 +358,20 @@ class StreamingApp:
 
     def _send(self, detection: Detection) -> None:
         name = detection.name
-        data, sent = None, False
+        data, sent, delivery = None, False, None
         if name in GESTURE_NAMES:
-            data = telegram(name)
-            try:
-                sent = bool(self.link.send(data))
-            except Exception as exc:  # a link must not raise; keep the result if it does
-                log.error("robot link raised %s: %s", type(exc).__name__, exc)
-            if not sent:
-                log.warning("telegram %s for %r not delivered", hex_bytes(data), name)
+            outcome = deliver_gesture(self.link, name)      # never raises
+            data, sent, delivery = outcome.telegram, outcome.written, outcome.status
+            if outcome.status == FAILED:
+                log.warning("telegram %s for %r %s", hex_bytes(data), name, outcome.describe())
         else:
             log.warning("class %r is not one of the robot's gestures; nothing sent", name)
         result = SpottedGesture(detection.class_index, name, detection.first, detection.last,
-                                detection.named_at, detection.score, data, sent)
+                                detection.named_at, detection.score, data, sent, delivery)
         self.results.append(result)
         log.info("spotted %s (frames %d-%d, named at %d, score %.2f)%s", name,
                  result.first, result.last, result.named_at, result.score,
-                 f", telegram {hex_bytes(data)}" if sent else "")
+                 f", telegram {hex_bytes(data)} {outcome.describe()}" if sent else "")
         if self.on_result is not None:
             try:
                 self.on_result(result)
