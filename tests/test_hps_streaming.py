@@ -71,6 +71,28 @@ def test_board_loop_names_what_the_measured_spotter_names(models, stream):
     assert sent == [telegram(r.class_name) for r in app.results]
     assert all(r.sent for r in app.results)
     assert app.results[0].to_dict()["telegram"] == telegram(app.results[0].class_name).hex(" ")
+    assert {r.to_dict()["delivery"] for r in app.results} == {"unconfirmed"}   # no --robot-ack
+
+
+def test_board_loop_acknowledged_deliveries(models, stream):
+    """--robot uart --robot-ack: each named gesture's telegram goes out with the
+    reply flag and the (simulated) brick's answer makes it acknowledged."""
+    from sw_hps.bus import SimBus
+    from sw_hps.robot import RobotChannel, UartLink
+    from sw_hps.simulated import SimulatedRn42, SimulatedUart
+    from sw_hps.telegram import GESTURE_NAMES
+
+    fixed = _smoothed_fixed(stream.points)
+    rn42 = SimulatedRn42()
+    bus = SimBus()
+    bus.attach(0x100, SimulatedUart(responder=rn42))
+    channel = RobotChannel(UartLink(bus, 0x100), ack_timeout=0.3)
+    app = run_stream(simulate_stream(models, fixed[:, 0], fixed[:, 1], link=channel, bus=bus))
+    assert app.results and {r.to_dict()["delivery"] for r in app.results} == {"acknowledged"}
+    assert [r.telegram for r in app.results] == [telegram(r.class_name, reply=True)
+                                                for r in app.results]
+    assert rn42.messages == [str(GESTURE_NAMES.index(r.class_name) + 1).encode()
+                             for r in app.results]
 
 
 def test_a_hand_that_leaves_flushes(models, stream):
@@ -99,9 +121,9 @@ def test_fifo_full_and_a_cleared_go_restart_the_stream(models, stream, caplog):
     assert app.lost == 1 and not peripheral.full and not peripheral.fifo_x
     assert "FIFO-FULL" in caplog.text
     peripheral.write32(0x0C, 0)           # someone cleared GO and STREAM
-    app.run(max_iterations=1)
-    assert peripheral.go and peripheral.streaming
-    assert "setting them again" in caplog.text
+    app.run(max_iterations=3)             # a bus fault, one probe, the restart
+    assert peripheral.go and peripheral.streaming and app.bus_faults == 1
+    assert "GO does not read back" in caplog.text and not app.bus_watch.active
 
 
 def test_a_bus_fault_does_not_end_the_loop(models, caplog):
