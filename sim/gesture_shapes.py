@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Callable
+from typing import Callable, Tuple
 
 import numpy as np
 
@@ -87,7 +87,7 @@ DIRECTION_NAMES = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
 _TRIANGLE_HEIGHT = math.sqrt(3.0) / 2.0
 
 # A stroke maps s in [0, 1] (fraction of its own length) to (n, 2) positions.
-_Stroke = tuple[Callable[[np.ndarray], np.ndarray], float]
+_Stroke = Tuple[Callable[[np.ndarray], np.ndarray], float]   # typing: Python 3.7 runs the board tests
 
 
 def _segment(start: tuple[float, float], end: tuple[float, float]) -> _Stroke:

@@ -1,24 +1,26 @@
 """Command line of the board application: ``python -m sw_hps`` (thesis §8.5).
 
-Runs on the board's ARM: Python 3 and numpy only, nothing else from this project.
+Runs on the board's ARM: Python and numpy only (the floor is declared and checked
+in :mod:`sw_hps`), nothing else from this project.
 
 ::
 
     python -m sw_hps --model MODEL.json --bus devmem|uio|sim
                      --robot serial:/dev/ttyUSB0|uart|none
                      [--bridge-offset 0x0] [--uio /dev/uio0] [--uart-offset 0x100]
-                     [--baudrate 115200] [--rn42-address ADDR] [--poll-ms 5]
-                     [--min-symbols 5] [--max-points 300] [--gesture-timeout 2]
+                     [--baudrate 115200] [--rn42-address ADDR] [--robot-ack [SECONDS]]
+                     [--poll-ms 5] [--min-symbols 5] [--max-points 300] [--gesture-timeout 2]
                      [--heartbeat 60] [--sim-trajectory FILE.csv] [--log-level info]
-                     [--spotting thesis|continuous]
+                     [--spotting thesis|continuous] [--fault-retries 0]
 
 The FIFO slave sits at ``--bridge-offset`` inside the lightweight bridge
 (``/dev/mem`` at ``0xFF200000``) or at offset 0 of the UIO map; the UART (``--robot
 uart``) at ``--uart-offset`` from the FIFO's base, in the same window. ``--bus sim``
 runs against :class:`~sw_hps.simulated.SimulatedFifoPeripheral` (and a simulated UART
-for ``--robot uart``), playing ``--sim-trajectory`` (``frame,x,y,flag`` in pixels, as
-``stereogest pipeline`` writes it), one video frame per poll, then prints one JSON
-line ``{"gestures": [...]}`` and exits; without a trajectory it idles until stopped.
+for ``--robot uart``, with a simulated RN-42 and NXT behind it), playing
+``--sim-trajectory`` (``frame,x,y,flag`` in pixels, as ``stereogest pipeline``
+writes it), one video frame per poll, then prints one JSON line ``{"gestures":
+[...]}`` and exits; without a trajectory it idles until stopped.
 
 ``--spotting thesis`` (the default) is the thesis' rest-gesture-rest protocol:
 the FPGA's spotting flag marks each gesture, the HMMs name it. ``--spotting
@@ -33,10 +35,47 @@ with no pair for that many seconds (a stuck bit); ``--heartbeat`` logs an "alive
 with the counters every that many seconds while idle (0 turns it off). The faults and
 their recovery are described in :mod:`sw_hps.app`.
 
+The robot (``docs/robot-link.md``): ``--rn42-address`` sets up an RN-42 on the
+serial port or the FPGA UART to connect to the brick, and again when the link
+drops; ``--robot-ack`` sends each telegram with "reply required" and waits up to
+SECONDS (0.3 by default) for the brick's answer. Each gesture's ``delivery`` (in
+the log and the JSON) is ``acknowledged`` (the brick confirmed), ``unconfirmed``
+(the bytes left, nothing can tell more: no ``--robot-ack``) or ``failed``; the
+log says "sent" only for ``acknowledged``.
+
+``python -m sw_hps --check [--bus devmem|uio|sim] [--bridge-offset ...] [--uio ...]``
+(``--model``/``--robot`` optional; ``--bus`` defaults to devmem) reports the FPGA,
+the bridge and the core and exits 0 if a stereogest core answers, 1 otherwise
+(:mod:`sw_hps.check`). A normal run does the same checks first: with ``--bus devmem``
+the FPGA manager and the bridge's reset bit before any access to the bridge, then
+(devmem, uio) the ID and Version registers.
+
+Faults on the bridge (:mod:`sw_hps.app`, Faults): reads of all ones, all zeros or
+other patterns no working core gives are logged once, backed off (probing up to once
+a second) and recovered from without a restart. A bus error the CPU raises as a
+signal cannot be handled inside Python, so with ``--bus devmem`` or ``uio`` (and for
+``--check`` on them) the application runs in a child process supervised by
+:mod:`sw_hps.guard`: SIGINT/SIGTERM are passed on to it, its exit status is passed
+through, and if it dies of SIGBUS (or SIGSEGV) the supervisor logs one error line
+naming the device, the address window, the likely cause and ``--check``, then exits
+with status 1 (the service manager restarts it), or with ``--fault-retries N`` first
+starts it again up to N times in a row after a growing wait (:mod:`sw_hps.guard`).
+SIGHUP reloads: the model file is loaded and checked again and, if good, the
+application restarts with it; a bad one is refused in one line and the running
+application keeps its model. ``--bus sim`` runs in one process without the supervisor (SIGHUP is not
+handled there).
+
 Exit status: 0 after SIGINT/SIGTERM or the end of a simulated trajectory, 2 for a bad
-argument or model file (one line on stderr), 1 if the bus cannot be opened.
+argument or model file (one line on stderr), 1 if the bus cannot be opened or the
+start-up checks fail (one line naming the fix), or if the application died of a bus
+error (SIGBUS/SIGSEGV; after ``--fault-retries``) or was killed by another signal
+(one line each).
 """
 from __future__ import annotations
+
+from . import check_floor
+
+check_floor()   # one line instead of an ImportError from the modules below that need numpy
 
 import argparse
 import json
@@ -49,13 +88,17 @@ import time
 from .app import (DEFAULT_GESTURE_TIMEOUT, DEFAULT_HEARTBEAT, DEFAULT_MAX_POINTS,
                   DEFAULT_MIN_SYMBOLS, GestureApp, check_models)
 from .bus import BusError, DevMemBus, SimBus, UioBus
+from .busfault import describe_bus
+from .guard import MAX_FAULT_RETRIES, RETRY_INITIAL, RETRY_MAX, supervise
+from .check import DEV_MEM, identity_problem, needed_span, preflight_bridge, run_check
 from soc.hps_interface import FIFO_BASE, UART_BASE, UART_SPAN
 
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
-from .robot import NullLink, SerialLink, UartLink, configure_rn42, normalise_bt_address
-from .simulated import (SimulatedFifoPeripheral, SimulatedUart, read_trajectory_csv,
-                        run_stream, simulate_stream, simulate_trajectory)
+from .robot import (ACK_TIMEOUT_RANGE, DEFAULT_ACK_TIMEOUT, RN42_STATUS_PREFIX, NullLink,
+                    RobotChannel, SerialLink, UartLink, normalise_bt_address)
+from .simulated import (SimulatedFifoPeripheral, SimulatedRn42, SimulatedUart,
+                        read_trajectory_csv, run_stream, simulate_stream, simulate_trajectory)
 from .streaming import StreamingApp, check_streaming_models
 
 PROG = "python -m sw_hps"
@@ -64,6 +107,8 @@ WINDOW_SPAN = 0x1000
 #: Size of the lightweight HPS-to-FPGA bridge.
 BRIDGE_SIZE = 0x200000
 LOG_LEVELS = ("debug", "info", "warning", "error")
+#: Buses that map the bridge into the process: run under the guard (sw_hps.guard).
+GUARDED_BUSES = ("devmem", "uio")
 #: Allowed --gesture-timeout (s): a few frames up to ten minutes.
 GESTURE_TIMEOUT_RANGE = (0.1, 600.0)
 #: Allowed non-zero --heartbeat (s): one second up to a day.
@@ -92,12 +137,17 @@ def _int(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Gesture recogniser on the DE1-SoC's ARM: reads "
                      "the centroid FIFO, classifies with HMMs, commands the NXT robot.")
-    parser.add_argument("--model", required=True, help="HMM model file (JSON)")
-    parser.add_argument("--bus", required=True, choices=("devmem", "uio", "sim"),
-                        help="register access: /dev/mem, a UIO device, or a simulation")
-    parser.add_argument("--robot", required=True,
+    parser.add_argument("--check", action="store_true",
+                        help="check the FPGA, the lightweight bridge and the core, print what "
+                        "is found and exit (0: a stereogest core answers); --model and "
+                        "--robot are optional, --bus defaults to devmem")
+    parser.add_argument("--model", help="HMM model file (JSON); required unless --check")
+    parser.add_argument("--bus", choices=("devmem", "uio", "sim"),
+                        help="register access: /dev/mem, a UIO device, or a simulation; "
+                        "required unless --check")
+    parser.add_argument("--robot",
                         help="serial:DEVICE (Bluetooth serial adapter), uart (FPGA UART) "
-                        "or none")
+                        "or none; required unless --check")
     parser.add_argument("--bridge-offset", type=_int, default=FIFO_BASE,
                         help=f"FIFO slave offset in the lightweight bridge (devmem; default "
                              f"{FIFO_BASE:#x})")
@@ -108,8 +158,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--baudrate", type=int, default=115200,
                         help="serial rate (default 115200)")
     parser.add_argument("--rn42-address",
-                        help="configure an RN-42 on the serial port to connect to this "
-                        "Bluetooth address first")
+                        help="set up an RN-42 on the robot link (serial or uart) to connect "
+                        "to this Bluetooth address first, and again when the link drops")
+    parser.add_argument("--robot-ack", type=float, nargs="?", const=DEFAULT_ACK_TIMEOUT,
+                        metavar="SECONDS",
+                        help="ask the NXT to confirm each telegram and wait up to SECONDS "
+                        f"for its reply (default {DEFAULT_ACK_TIMEOUT:g}); without it "
+                        "deliveries are unconfirmed")
     parser.add_argument("--poll-ms", type=float, default=5.0,
                         help="sleep between idle polls in ms (default 5)")
     parser.add_argument("--min-symbols", type=int, default=DEFAULT_MIN_SYMBOLS,
@@ -129,6 +184,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="thesis: the FPGA's flag marks each gesture (default); "
                         "continuous: every frame streamed, gestures found one after another "
                         "(a model file from 'stereogest train --continuous')")
+    parser.add_argument("--fault-retries", type=int, default=0, metavar="N",
+                        help="after the application dies of a bus error (SIGBUS), start it "
+                        f"again up to N times in a row, waiting {RETRY_INITIAL:g} s doubling "
+                        f"to {RETRY_MAX:g} s (devmem, uio; default 0: exit with status 1, "
+                        f"for systemd's Restart=on-failure; at most {MAX_FAULT_RETRIES})")
     parser.add_argument("--log-level", default="info", choices=LOG_LEVELS,
                         help="logging level (default info)")
     return parser
@@ -137,6 +197,15 @@ def build_parser() -> argparse.ArgumentParser:
 def parse_args(argv):
     """Parse and validate; ``UsageError`` with a one-line message on any problem."""
     args = build_parser().parse_args(argv)
+    if args.check:
+        args.bus = args.bus or "devmem"
+        args.robot = args.robot or "none"
+    else:
+        missing = [f"--{name}" for name in ("model", "bus", "robot")
+                   if getattr(args, name) is None]
+        if missing:
+            raise UsageError(f"the following arguments are required: {', '.join(missing)} "
+                             f"(only --check runs without them)")
     robot = args.robot
     if robot in ("uart", "none"):
         args.robot_kind, args.serial_device = robot, None
@@ -168,27 +237,44 @@ def parse_args(argv):
                          f"seconds, got {args.heartbeat:g}")
     if args.sim_trajectory is not None and args.bus != "sim":
         raise UsageError("argument --sim-trajectory: only with --bus sim")
+    if not 0 <= args.fault_retries <= MAX_FAULT_RETRIES:
+        raise UsageError(f"argument --fault-retries: must be in [0, {MAX_FAULT_RETRIES}], "
+                         f"got {args.fault_retries}")
+    if args.fault_retries and args.bus not in GUARDED_BUSES:
+        raise UsageError("argument --fault-retries: only with --bus devmem or uio")
     if args.rn42_address is not None:
-        if args.robot_kind != "serial":
-            raise UsageError("argument --rn42-address: only with --robot serial:DEVICE")
+        if args.robot_kind == "none":
+            raise UsageError("argument --rn42-address: only with --robot serial:DEVICE or uart")
         try:
             args.rn42_address = normalise_bt_address(args.rn42_address)
         except ValueError as exc:
             raise UsageError(f"argument --rn42-address: {exc}") from None
+    if args.robot_ack is not None:
+        low, high = ACK_TIMEOUT_RANGE
+        if not low <= args.robot_ack <= high:  # also refuses nan
+            raise UsageError(f"argument --robot-ack: must be in [{low:g}, {high:g}] seconds, "
+                             f"got {args.robot_ack:g}")
     if getattr(termios, f"B{args.baudrate}", None) is None or args.baudrate <= 0:
         raise UsageError(f"argument --baudrate: not a standard serial rate: {args.baudrate}")
     return args
 
 
 def _make_link(args, bus):
+    """The robot link of --robot, in a channel that knows --robot-ack and
+    --rn42-address (the RN-42 set up once here)."""
     if args.robot_kind == "none":
-        return NullLink()
-    if args.robot_kind == "uart":
-        return UartLink(bus, args.uart_offset)
-    link = SerialLink(args.serial_device, args.baudrate)
-    if args.rn42_address is not None and not configure_rn42(link, args.rn42_address):
+        link = NullLink()
+    elif args.robot_kind == "uart":
+        link = UartLink(bus, args.uart_offset)
+    else:
+        link = SerialLink(args.serial_device, args.baudrate)
+    channel = RobotChannel(link, ack_timeout=args.robot_ack, rn42_address=args.rn42_address)
+    if args.rn42_address is not None and not channel.setup():
         log.warning("RN-42 set-up failed; sending anyway (the module may already be connected)")
-    return link
+    if args.robot_kind != "none" and args.robot_ack is None:
+        log.info("%s link: deliveries unconfirmed; --robot-ack asks the NXT to confirm",
+                 "UART" if args.robot_kind == "uart" else "serial")
+    return channel
 
 
 def _run_streaming(args, models, bus, link, started) -> int:
@@ -214,16 +300,42 @@ def _run_streaming(args, models, bus, link, started) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    """Entry point; returns the exit status (never raises)."""
+def _load_models(args):
+    """The model file, checked for the chosen spotting (at start, and by the guard on
+    SIGHUP); ``UsageError`` / ``ValueError`` with a one-line message."""
+    models = check_models(load_models(args.model))
+    if args.spotting == "continuous":
+        try:
+            check_streaming_models(models)
+        except ValueError as exc:
+            raise UsageError(f"argument --spotting: {exc}") from None
+    return models
+
+
+def main(argv=None, *, guard: bool = False) -> int:
+    """Entry point; returns the exit status (never raises).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (``sys.argv[1:]`` if None).
+    guard : bool
+        Run the application in a supervised child process for the mapped buses
+        (:mod:`sw_hps.guard`), as ``python -m sw_hps`` does; callers that keep
+        the application in their own process (tests) leave it off.
+    """
     try:
         args = parse_args(sys.argv[1:] if argv is None else argv)
-        models = check_models(load_models(args.model))
-        if args.spotting == "continuous":
-            try:
-                check_streaming_models(models)
-            except ValueError as exc:
-                raise UsageError(f"argument --spotting: {exc}") from None
+        if args.check:
+            def check(_reloaded=None):
+                return run_check(args, sys.stdout, window_span=WINDOW_SPAN, mem_path=DEV_MEM)
+            if guard and args.bus in GUARDED_BUSES:   # its reads of the bridge may fault too
+                where = (f"--bus devmem, {DEV_MEM} at "
+                         f"{LIGHTWEIGHT_BRIDGE_BASE + args.bridge_offset:#010x}"
+                         if args.bus == "devmem" else f"--bus uio, {args.uio}")
+                return supervise(check, where=where)
+            return check()
+        models = _load_models(args)
         trajectory = read_trajectory_csv(args.sim_trajectory) \
             if args.sim_trajectory is not None else None
     except (UsageError, ValueError) as exc:
@@ -236,14 +348,52 @@ def main(argv=None) -> int:
 
     try:
         if args.bus == "devmem":
-            bus = DevMemBus(LIGHTWEIGHT_BRIDGE_BASE, args.bridge_offset, WINDOW_SPAN)
+            # the HPS's own registers first: a bridge in reset or an unconfigured FPGA
+            # would stop the ARM with a bus error at the first access
+            problem = preflight_bridge(DEV_MEM)
+            if problem is not None:
+                print(f"{PROG}: error: {problem}", file=sys.stderr)
+                return 1
+            bus = DevMemBus(LIGHTWEIGHT_BRIDGE_BASE, args.bridge_offset, WINDOW_SPAN,
+                            path=DEV_MEM)
         elif args.bus == "uio":
-            bus = UioBus(args.uio, WINDOW_SPAN)
+            bus = UioBus(args.uio, WINDOW_SPAN,
+                         need=needed_span(args.robot_kind, args.uart_offset))
         else:
             bus = SimBus(span=WINDOW_SPAN)
     except BusError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 1
+    if guard and args.bus in GUARDED_BUSES:
+        # Every access to the bridge happens in the child: a bus error (SIGBUS) there
+        # becomes one line from the parent instead of a silent death.
+        try:
+            return supervise(lambda reloaded: _serve(args, reloaded or models, trajectory, bus),
+                             where=f"--bus {args.bus}, {describe_bus(bus)}",
+                             reload=lambda: _load_models(args),
+                             fault_retries=args.fault_retries)
+        finally:
+            bus.close()
+    return _serve(args, models, trajectory, bus)
+
+
+def _serve(args, models, trajectory, bus) -> int:
+    """From the first access to the bus on: the ID check, the robot link and the
+    loop, until stopped; returns the exit status (never raises)."""
+    if args.bus != "sim":
+        # the ID register tells a stereogest core from another design or a dead bridge
+        where = (f"{LIGHTWEIGHT_BRIDGE_BASE + args.bridge_offset:#x}" if args.bus == "devmem"
+                 else args.uio)
+        try:
+            identity = FifoPeripheral(bus).identify()
+            problem = identity_problem(identity, where)
+        except BusError as exc:
+            problem = str(exc)
+        if problem is not None:
+            bus.close()
+            print(f"{PROG}: error: {problem}", file=sys.stderr)
+            return 1
+        log.info("core at %s: %s", where, identity.describe())
 
     link = None
     app = None
@@ -261,7 +411,10 @@ def main(argv=None) -> int:
         previous[signum] = signal.signal(signum, stop)
     try:
         if args.bus == "sim" and args.robot_kind == "uart":
-            bus.attach(args.uart_offset, SimulatedUart())
+            # the module and brick at the far end: connected already unless the
+            # run names an address to set the module up with
+            rn42 = SimulatedRn42(args.rn42_address, status_prefix=RN42_STATUS_PREFIX)
+            bus.attach(args.uart_offset, SimulatedUart(responder=rn42))
         link = _make_link(args, bus)
         options = dict(min_symbols=args.min_symbols, max_points=args.max_points,
                        poll_interval=args.poll_ms / 1000.0,
@@ -299,4 +452,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(guard=True))

@@ -6,7 +6,8 @@ A *bus* is a window of 32-bit registers addressed by byte offset:
 
 * :class:`DevMemBus` maps the lightweight HPS-to-FPGA bridge (physical base
   ``0xFF200000`` on the Cyclone V) through ``/dev/mem`` (needs root);
-* :class:`UioBus` maps a UIO device (``/dev/uioN``) whose map 0 is the slave;
+* :class:`UioBus` maps a UIO device (``/dev/uioN``) whose map 0 is the slave
+  (its size taken from sysfs, :func:`read_uio_map`);
 * :class:`SimBus` forwards to in-process models (tests, ``--bus sim``).
 
 Every backend checks offsets the same way: an offset that is not a multiple of 4,
@@ -17,6 +18,7 @@ from __future__ import annotations
 import logging
 import mmap
 import os
+from collections import namedtuple
 try:  # Python 3.8+; on 3.7 the interface is only documented
     from typing import Protocol, runtime_checkable
 except ImportError:
@@ -27,7 +29,8 @@ except ImportError:
 
 from soc.hps_interface import LIGHTWEIGHT_BRIDGE_BASE
 
-__all__ = ["Bus", "BusError", "DevMemBus", "UioBus", "SimBus", "check_offset"]
+__all__ = ["Bus", "BusError", "DevMemBus", "UioBus", "UioMap", "read_uio_map", "UIO_SYSFS",
+           "SimBus", "check_offset"]
 
 log = logging.getLogger(__name__)
 
@@ -170,20 +173,115 @@ class DevMemBus(_MmapBus):
         super().__init__(path, base + offset, span)
 
 
+#: Where the kernel describes each UIO device (``uioN/name``, ``uioN/maps/map0/...``).
+UIO_SYSFS = "/sys/class/uio"
+
+#: Map 0 of a UIO device as sysfs describes it: ``device`` (``uioN``), ``name``
+#: (the device-tree node's name), ``addr`` (physical address), ``size`` (bytes)
+#: and ``offset`` (of the registers inside the first mapped page); a value sysfs
+#: does not give is None.
+UioMap = namedtuple("UioMap", "device name addr size offset")
+
+
+def _read_sysfs(path):
+    try:
+        with open(path) as handle:
+            return handle.read().strip()
+    except OSError:
+        return None
+
+
+def _sysfs_int(path):
+    text = _read_sysfs(path)
+    try:
+        return None if text is None else int(text, 0)
+    except ValueError:
+        return None
+
+
+def read_uio_map(path: str, sysfs: str = UIO_SYSFS):
+    """Map 0 of the UIO device node ``path`` (a udev symlink to it works too),
+    from ``sysfs``; None if sysfs has no entry for it (not a UIO device).
+
+    Returns
+    -------
+    UioMap or None
+    """
+    device = os.path.basename(os.path.realpath(str(path)))
+    root = os.path.join(str(sysfs), device)
+    if not os.path.isdir(root):
+        return None
+    maps = os.path.join(root, "maps", "map0")
+    return UioMap(device=device, name=_read_sysfs(os.path.join(root, "name")),
+                  addr=_sysfs_int(os.path.join(maps, "addr")),
+                  size=_sysfs_int(os.path.join(maps, "size")),
+                  offset=_sysfs_int(os.path.join(maps, "offset")))
+
+
+def _uio_reg(uio_map, need: int) -> str:
+    """The device-tree ``reg`` that gives ``need`` bytes in whole pages."""
+    page = mmap.PAGESIZE
+    size = max(page, -(-need // page) * page)
+    addr = "<base>" if uio_map.addr is None else f"{uio_map.addr:#x}"
+    return f"reg = <{addr} {size:#x}>"
+
+
 class UioBus(_MmapBus):
     """A slave exposed by a UIO driver (``/dev/uioN``, map 0).
+
+    The map's size is read from ``<sysfs>/uioN/maps/map0/size`` and at most that
+    many bytes are mapped: newer kernels refuse an mmap longer than the map (in
+    whole pages), which the device-tree node's ``reg`` sets.
 
     Parameters
     ----------
     path : str
-        The UIO device node.
+        The UIO device node (or a symlink to it; a plain file in tests, which
+        sysfs does not describe: then ``span`` is mapped as asked).
     span : int
-        Bytes to map (at most the size of the UIO map,
-        ``/sys/class/uio/uioN/maps/map0/size``).
+        Bytes wanted (mapped: the smaller of this and the map's size).
+    need : int, optional
+        Bytes the caller will use (registers up to this offset); a smaller map
+        raises :class:`BusError` naming its size and the ``reg`` that fixes it.
+    sysfs : str
+        The UIO class directory; injectable for tests.
+
+    Raises
+    ------
+    BusError
+        The device cannot be opened or mapped, or its map is too small.
     """
 
-    def __init__(self, path: str = "/dev/uio0", span: int = 0x1000):
-        super().__init__(path, 0, span)
+    def __init__(self, path: str = "/dev/uio0", span: int = 0x1000, need=None,
+                 sysfs: str = UIO_SYSFS):
+        _check_span(span)
+        if need is not None and (isinstance(need, bool) or not isinstance(need, int)
+                                 or need < 0):
+            raise ValueError(f"need must be a non-negative int, got {need!r}")
+        self.uio_map = uio_map = read_uio_map(path, sysfs)
+        offset = 0
+        if uio_map is not None:
+            size_file = os.path.join(str(sysfs), uio_map.device, "maps", "map0", "size")
+            if uio_map.size is None:
+                raise BusError(f"{path}: {size_file} missing: the UIO device has no memory "
+                               f"map; give its device-tree node "
+                               f"{_uio_reg(uio_map, need or span)}")
+            usable = uio_map.size - uio_map.size % _WORD
+            if need is not None and usable < need:
+                raise BusError(f"{path}: UIO map 0 of '{uio_map.name}' is {uio_map.size:#x} "
+                               f"bytes ({size_file}), the application needs {need:#x}: "
+                               f"set {_uio_reg(uio_map, need)} in its device-tree node")
+            span = min(span, usable)
+            offset = uio_map.offset or 0
+        try:
+            super().__init__(path, offset, span)
+        except BusError as exc:
+            if uio_map is None or uio_map.size >= mmap.PAGESIZE:
+                raise
+            # The kernel maps whole pages: a map smaller than a page cannot be mapped.
+            raise BusError(f"{exc}; UIO map 0 is {uio_map.size:#x} bytes, less than a page: "
+                           f"set {_uio_reg(uio_map, need or span)} in its device-tree "
+                           f"node") from None
 
 
 class SimBus:

@@ -17,6 +17,21 @@ The thesis' Table 15 is not available to this project; the mapping below is ours
 An NXT program reading mailbox 0 performs the action (it is not part of this
 repository).
 
+Acknowledged telegrams (``--robot-ack``)
+---------------------------------------
+``telegram(gesture, reply=True)`` sets the first body byte to 0x00 (direct
+command, reply required) instead of 0x80; the brick then answers with a reply
+telegram, Bluetooth-framed like the command::
+
+    reply = 03 00 (length 3), 0x02 (reply), 0x09 (MESSAGEWRITE), status
+
+status 0x00 is success; any other value is an error code of the NXT direct
+commands (:data:`NXT_STATUS`; e.g. 0xEC: no program running, so nobody reads
+the mailbox). :func:`find_reply` picks a reply out of received bytes. Source
+of the bytes: the LEGO MINDSTORMS NXT Bluetooth Developer Kit, appendix 2
+"Direct commands" (MESSAGEWRITE); checked against nxt-python 3.5's
+``nxt.telegram`` and ``nxt.brick.Brick.message_write``.
+
 ==  ============  ================================  =========================
 #   gesture       robot action                      telegram (hex)
 ==  ============  ================================  =========================
@@ -35,8 +50,9 @@ import struct
 
 from soc.hps_interface import GESTURE_NAMES
 
-__all__ = ["GESTURE_NAMES", "ROBOT_ACTIONS", "NXT_DIRECT_NO_REPLY", "NXT_MESSAGEWRITE",
-           "NXT_INBOX", "telegram", "gesture_index", "hex_bytes"]
+__all__ = ["GESTURE_NAMES", "ROBOT_ACTIONS", "NXT_DIRECT_NO_REPLY", "NXT_DIRECT_REPLY",
+           "NXT_REPLY", "NXT_MESSAGEWRITE", "NXT_INBOX", "NXT_STATUS", "MESSAGEWRITE_REPLY",
+           "telegram", "find_reply", "status_text", "gesture_index", "hex_bytes"]
 
 #: Action the NXT program performs for each gesture (our Table 15).
 ROBOT_ACTIONS = ("drive forward", "drive backward", "turn right (pivot), then forward",
@@ -44,9 +60,27 @@ ROBOT_ACTIONS = ("drive forward", "drive backward", "turn right (pivot), then fo
                  "spin counter-clockwise in place", "stop both motors")
 
 NXT_DIRECT_NO_REPLY = 0x80
+NXT_DIRECT_REPLY = 0x00
+#: First byte of the brick's answer to a command sent with "reply required".
+NXT_REPLY = 0x02
 NXT_MESSAGEWRITE = 0x09
 NXT_INBOX = 0
-
+#: The framed reply to a MessageWrite up to its status byte: length 3, reply, opcode.
+MESSAGEWRITE_REPLY = struct.pack("<H", 3) + bytes([NXT_REPLY, NXT_MESSAGEWRITE])
+#: Error codes a MessageWrite reply can carry (NXT direct commands appendix).
+NXT_STATUS = {
+    0x00: "success",
+    0xBD: "request failed",
+    0xBE: "unknown command opcode",
+    0xBF: "insane packet",
+    0xC0: "data contains out-of-range values",
+    0xDD: "communication bus error",
+    0xDE: "no free memory in communication buffer",
+    0xDF: "specified channel/connection is not valid",
+    0xEC: "no active program",
+    0xED: "illegal size specified",
+    0xEE: "illegal mailbox queue ID specified",
+}
 
 
 def gesture_index(gesture) -> int:
@@ -63,23 +97,52 @@ def gesture_index(gesture) -> int:
     return int(gesture)
 
 
-def telegram(gesture) -> bytes:
+def telegram(gesture, reply: bool = False) -> bytes:
     """Bluetooth-framed NXT MessageWrite telegram for a gesture (see the table above).
 
     Parameters
     ----------
     gesture : str or int
         A name of :data:`GESTURE_NAMES` or its index.
+    reply : bool
+        Ask the brick for a reply (first body byte 0x00 instead of 0x80).
 
     Returns
     -------
     bytes
-        E.g. ``06 00 80 09 00 02 31 00`` for ``"forward"``.
+        E.g. ``06 00 80 09 00 02 31 00`` for ``"forward"`` (``06 00 00 09 00 02
+        31 00`` with ``reply=True``).
     """
     message = str(gesture_index(gesture) + 1).encode("ascii")
-    body = bytes([NXT_DIRECT_NO_REPLY, NXT_MESSAGEWRITE, NXT_INBOX, len(message) + 1]) \
-        + message + b"\x00"
+    kind = NXT_DIRECT_REPLY if reply else NXT_DIRECT_NO_REPLY
+    body = bytes([kind, NXT_MESSAGEWRITE, NXT_INBOX, len(message) + 1]) + message + b"\x00"
     return struct.pack("<H", len(body)) + body
+
+
+def find_reply(received: bytes):
+    """The status byte of the first MessageWrite reply in ``received``.
+
+    Parameters
+    ----------
+    received : bytes
+        Bytes read from the link (other bytes around the reply, such as an
+        RN-42's status strings, are skipped).
+
+    Returns
+    -------
+    int or None
+        The status (0 = success), or None if no complete reply is there yet.
+    """
+    received = bytes(received)
+    at = received.find(MESSAGEWRITE_REPLY)
+    if at < 0 or at + len(MESSAGEWRITE_REPLY) >= len(received):
+        return None
+    return received[at + len(MESSAGEWRITE_REPLY)]
+
+
+def status_text(status: int) -> str:
+    """``"0xec (no active program)"`` for a reply's status byte."""
+    return "{:#04x} ({})".format(status, NXT_STATUS.get(status, "unknown status"))
 
 
 def hex_bytes(data: bytes) -> str:

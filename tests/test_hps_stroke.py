@@ -12,6 +12,8 @@ COL = {name: k for k, name in enumerate(FEATURE_NAMES)}
 
 
 def polyline(rng, vertices=6):
+    # rng: a numpy RandomState, whose legacy stream draws the same on numpy 1.16
+    # (the board's floor, tests/test_hps_floor.py) as on 2.x
     return np.cumsum(rng.normal(0, 30, (vertices, 2)), axis=0) + 200
 
 
@@ -20,14 +22,14 @@ def densify(vertices, per_segment, rng):
     inside each segment (uneven spacing)."""
     out = [vertices[:1]]
     for a, b in zip(vertices[:-1], vertices[1:]):
-        u = np.sort(rng.random(per_segment))[:, None]
+        u = np.sort(rng.random_sample(per_segment))[:, None]
         out += [a + u * (b - a), b[None]]
     return np.concatenate(out)
 
 
 def test_columns_and_shape():
     assert FEATURE_NAMES == ("cos", "sin", "x", "y", "arc", "turn")
-    x = stroke_features(polyline(np.random.default_rng(0)), 16)
+    x = stroke_features(polyline(np.random.RandomState(0)), 16)
     assert x.shape == (15, 6) and x.dtype == np.float64
     assert np.allclose(np.hypot(x[:, COL["cos"]], x[:, COL["sin"]]), 1.0)
 
@@ -52,7 +54,7 @@ def test_direction_of_a_straight_line(step, direction):
 
 def test_arc_column_goes_from_0_to_1():
     for resample in (3, 4, 17, 64):
-        arc = stroke_features(polyline(np.random.default_rng(resample)), resample)[:, COL["arc"]]
+        arc = stroke_features(polyline(np.random.RandomState(resample)), resample)[:, COL["arc"]]
         assert arc[0] == 0.0 and arc[-1] == 1.0
         assert np.allclose(np.diff(arc), 1 / (resample - 2))
 
@@ -77,7 +79,7 @@ def test_turn_of_a_right_angle_and_of_a_circle():
        shift=st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)),
        scale=st.floats(1e-3, 1e3), resample=st.integers(3, 40))
 def test_invariant_to_translation_and_uniform_scale(seed, shift, scale, resample):
-    path = polyline(np.random.default_rng(seed))
+    path = polyline(np.random.RandomState(seed))
     a = stroke_features(path, resample)
     b = stroke_features(path * scale + np.array(shift), resample)
     assert np.allclose(a[:, :5], b[:, :5], rtol=0, atol=1e-7)
@@ -88,15 +90,16 @@ def test_invariant_to_translation_and_uniform_scale(seed, shift, scale, resample
 
 @pytest.mark.parametrize("seed", range(5))
 def test_invariant_to_sampling_density_along_the_same_polyline(seed):
-    rng = np.random.default_rng(seed)
+    rng = np.random.RandomState(seed)
     vertices = polyline(rng, vertices=10)
     sparse = stroke_features(vertices, 32)
     dense = densify(vertices, 110, rng)                     # about 1000 points
     assert len(dense) == 1000
     assert np.allclose(stroke_features(dense, 32), sparse, rtol=0, atol=1e-9)
     # Without the corners (1000 points equally spaced along it) the chords cut
-    # the corners a little: nearly the same positions; directions and turns differ
-    # only at the few steps that straddle a (possibly sharp) corner.
+    # the corners a little: nearly the same positions; directions differ only at
+    # the steps holding a corner (a corner within a tenth of a step of a step's end
+    # may fall in either neighbour), turns only there and at the step after.
     along = np.concatenate([[0], np.cumsum(np.hypot(*np.diff(vertices, axis=0).T))])
     s = np.linspace(0, along[-1], 1000)
     cut = np.column_stack([np.interp(s, along, vertices[:, 0]),
@@ -104,14 +107,17 @@ def test_invariant_to_sampling_density_along_the_same_polyline(seed):
     close = stroke_features(cut, 32)
     assert np.abs(close[:, 2:4] - sparse[:, 2:4]).max() < 3e-3
     assert np.array_equal(close[:, 4], sparse[:, 4])
-    direction = np.abs(close[:, :2] - sparse[:, :2])
+    corner_at = along[1:-1] / (along[-1] / 31)            # in steps of the resampled path
+    corner_steps = {int(np.floor(at + d)) for at in corner_at for d in (-0.1, 0.1)}
+    direction = np.abs(close[:, :2] - sparse[:, :2]).max(axis=1)
     turn = np.abs(np.angle(np.exp(1j * (close[:, 5] - sparse[:, 5]))))
-    assert direction.max() < 0.3 and direction.mean() < 0.01
-    assert turn.max() < 0.3 and turn.mean() < 0.02
+    assert set(np.flatnonzero(direction > 1e-6)) <= corner_steps
+    assert set(np.flatnonzero(turn > 1e-6)) <= corner_steps | {k + 1 for k in corner_steps}
+    assert len(corner_steps) <= 2 * len(corner_at) < len(sparse)    # few steps of the 31
 
 
 def test_repeated_points_do_not_change_the_features():
-    vertices = polyline(np.random.default_rng(9))
+    vertices = polyline(np.random.RandomState(9))
     doubled = np.repeat(vertices, 3, axis=0)
     assert np.allclose(stroke_features(doubled, 20), stroke_features(vertices, 20), atol=1e-12)
 
@@ -122,7 +128,7 @@ def test_a_path_without_motion_has_no_features(path):
 
 
 def test_resample_path_spacing_and_ends():
-    vertices = polyline(np.random.default_rng(1))
+    vertices = polyline(np.random.RandomState(1))
     out = resample_path(vertices, 50)
     assert np.allclose(out[0], vertices[0]) and np.allclose(out[-1], vertices[-1])
     chords = np.hypot(*np.diff(out, axis=0).T)
