@@ -68,6 +68,11 @@ def main(argv=None) -> int:
                     help="states per class model (default 12 $1, 8 corpus)")
     ap.add_argument("--step", type=int, default=None,
                     help="pixels of travel per symbol (default 6 $1, 20 corpus)")
+    ap.add_argument("--distractors", action="store_true",
+                    help="non-gesture motion (sim.distractors) before every gesture")
+    ap.add_argument("--idle-steps", type=int, default=0,
+                    help="per held-out subject, this many steps of distractors alone "
+                         "(18000 = 10 minutes at 30 fps)")
     ap.add_argument("--json", default=None,
                     help="report (default build/continuous_recognition_<data>.json)")
     args = ap.parse_args(argv)
@@ -80,6 +85,8 @@ def main(argv=None) -> int:
         ap.error(f"--states must be in 1..{MAX_STATES}, got {states}")
     if not 1 <= step <= 1000:
         ap.error(f"--step must be in 1..1000 pixels, got {step}")
+    if not 0 <= args.idle_steps <= 10_000_000:
+        ap.error(f"--idle-steps must be in 0..10000000, got {args.idle_steps}")
     args.states, args.step = states, step
     if corpus:
         from recognition.corpus import synthetic_corpus
@@ -98,7 +105,8 @@ def main(argv=None) -> int:
         data = data.subset(np.flatnonzero(np.isin(data.subject, chosen)))
     start = time.process_time()
     report = leave_one_subject_out(data, states=args.states, step=args.step,
-                                   front_end=front_end)
+                                   front_end=front_end, distractors=args.distractors,
+                                   idle_steps=args.idle_steps)
     report["cpu_s"] = round(time.process_time() - start, 1)
     report["cost"] = cost_per_frame(data, args.states, args.step, front_end)
     out = Path(args.json or ROOT / "build" / f"continuous_recognition_{args.data}.json")
@@ -106,6 +114,7 @@ def main(argv=None) -> int:
     out.write_text(json.dumps(report, indent=1) + "\n")
     o = report["overall"]
     what = "synthetic camera corpus (seed 23)" if corpus else "$1"
+    what += ", distractors before every gesture" if args.distractors else ""
     print(f"{what} streams, leave one subject out ({len(report['per_subject'])} subjects, "
           f"{o['gestures']} gestures, {args.states} states, step {args.step} px):")
     print(f"  F1 {100 * o['f1']:.2f} %  precision {100 * o['precision']:.2f} %  "
@@ -114,6 +123,11 @@ def main(argv=None) -> int:
           f"minutes of the {o['between_gesture_frames']} frames between gestures at 30 fps)")
     print(f"  latency from a gesture's end to its name: median "
           f"{o['latency_median_frames']} frames, 95th percentile {o['latency_p95_frames']}")
+    if report["idle"]:
+        i = report["idle"]
+        print(f"  distractors only: {i['false_commands']} commands in {i['frames']} frames "
+              f"({i['minutes']} minutes at 30 fps): {i['false_commands_per_10_min']:.2f} per "
+              f"10 minutes")
     for subject, s in report["per_subject"].items():
         print(f"  subject {subject}: F1 {100 * s['f1']:.2f} %, bias {s['threshold_bias']}")
     c = report["cost"]

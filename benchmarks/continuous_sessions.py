@@ -7,9 +7,16 @@ the golden model of the whole pipeline and the board's continuous spotting
 sw_hps --spotting continuous`` runs on each record), scored against each
 clip's truth (:func:`stereogest.pipeline_outputs.sequence_score`).
 
+``--distractors`` puts non-gesture motion (:mod:`sim.distractors`) before
+every gesture; ``--idle-frames N`` also renders N frames of distractors only
+(clips of at most ``--idle-clip`` frames, scene seeds 900 onwards) and counts
+the commands named in them: the false commands per 10 minutes of motion that
+is no gesture. ``--scene hard`` renders every difficulty (and the pipeline
+then tracks the hand, ``--hand-tracking``).
+
 Run: ``python benchmarks/continuous_sessions.py [--sessions 10] [--per-session 8]
-[--width 320 --height 240] [--model MODEL.json] [--json FILE]``. Prints the
-figures (and CPU seconds); no distractor motion yet (not rendered).
+[--width 320 --height 240] [--distractors] [--idle-frames 18000] [--scene hard]
+[--model MODEL.json] [--json FILE]``. Prints the figures (and CPU seconds).
 """
 from __future__ import annotations
 
@@ -22,11 +29,50 @@ import numpy as np
 
 from sim.gesture_shapes import GESTURE_NAMES
 from sim.model.pipeline import PipelineParams, run_clip
+from sim.difficulties import preset
 from sim.render import render_sequence
 from stereogest.pipeline_outputs import load_board_models, sequence_score, stream_results
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRST_SEED = 500
+#: Scene seeds of the distractor-only clips.
+FIRST_IDLE_SEED = 900
+
+
+def idle_commands(models, params, width: int, height: int, frames: int, clip_frames: int,
+                  scene: str, cpu: dict) -> dict:
+    """Commands named in ``frames`` frames of distractors only (no gesture: every
+    one is a false command), rendered in clips of ``clip_frames``."""
+    false, clips, kinds = 0, [], {}
+    done = 0
+    for k in range(-(-frames // clip_frames)):
+        n = min(clip_frames, frames - done)
+        seed = FIRST_IDLE_SEED + k
+        t = time.process_time()
+        clip = render_sequence([], seed, width, height, pause=(0, 15), distractors=True,
+                               frames=n, difficulties=preset(scene, seed))
+        cpu["render"] += time.process_time() - t
+        t = time.process_time()
+        trajectory, _ = run_clip(clip.left, clip.right, params)
+        cpu["model"] += time.process_time() - t
+        t = time.process_time()
+        results = stream_results(models, trajectory, width)
+        cpu["spotting"] += time.process_time() - t
+        named = [r for r in results if r["outcome"] == "recognised"]
+        for r in named:     # which distractor (or pause) each false command overlapped
+            hit = [kind for kind, a, b in clip.distractors if a <= r["last"] and r["first"] <= b]
+            key = hit[0] if hit else "pause"
+            kinds[key] = kinds.get(key, 0) + 1
+        false += len(named)
+        done += n
+        clips.append({"seed": seed, "frames": n, "false_commands": len(named),
+                      "named": [{k: r[k] for k in ("name", "first", "last")} for r in named],
+                      "distractors": [[kind, a, b] for kind, a, b in clip.distractors]})
+        print(f"idle clip {k + 1} (seed {seed}, {n} frames): {len(named)} commands", flush=True)
+    minutes = frames / 30 / 60
+    return {"frames": frames, "minutes": round(minutes, 2), "false_commands": false,
+            "false_commands_per_10_min": 10 * false / minutes, "by_distractor": kinds,
+            "clips": clips}
 
 
 def main(argv=None) -> int:
@@ -35,15 +81,26 @@ def main(argv=None) -> int:
     ap.add_argument("--per-session", type=int, default=8)
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--distractors", action="store_true",
+                    help="non-gesture motion before every gesture")
+    ap.add_argument("--idle-frames", type=int, default=0,
+                    help="frames of distractors only (18000 = 10 minutes at 30 fps)")
+    ap.add_argument("--idle-clip", type=int, default=900,
+                    help="frames per distractor-only clip (memory)")
+    ap.add_argument("--scene", choices=("easy", "hard"), default="easy",
+                    help="hard: every difficulty, with the pipeline's hand tracking")
     ap.add_argument("--model", default=None, help="default: sw_hps/models/continuous7.json")
     ap.add_argument("--json", default=str(ROOT / "build" / "continuous_sessions.json"))
     args = ap.parse_args(argv)
     for option, value, lo, hi in (("--sessions", args.sessions, 1, 1000),
-                                  ("--per-session", args.per_session, 1, 100)):
+                                  ("--per-session", args.per_session, 1, 100),
+                                  ("--idle-frames", args.idle_frames, 0, 1_000_000),
+                                  ("--idle-clip", args.idle_clip, 100, 100_000)):
         if not lo <= value <= hi:
             ap.error(f"{option} must be in {lo}..{hi}, got {value}")
     models = load_board_models(args.model, "continuous")
-    params = PipelineParams.for_frame(args.width)
+    hard = args.scene == "hard"
+    params = PipelineParams.for_frame(args.width, hand_tracking=hard)
     totals = dict(true=0, named=0, correct=0, false=0)
     latencies, between, frames, sessions = [], 0, 0, []
     cpu = {"render": 0.0, "model": 0.0, "spotting": 0.0}
@@ -52,7 +109,9 @@ def main(argv=None) -> int:
         rng = np.random.default_rng(seed)
         names = [str(n) for n in rng.choice(GESTURE_NAMES, args.per_session)]
         t = time.process_time()
-        clip = render_sequence(names, seed, args.width, args.height, pause=(0, 15))
+        clip = render_sequence(names, seed, args.width, args.height, pause=(0, 15),
+                               distractors=args.distractors,
+                               difficulties=preset(args.scene, seed))
         cpu["render"] += time.process_time() - t
         t = time.process_time()
         trajectory, _ = run_clip(clip.left, clip.right, params)
@@ -75,7 +134,10 @@ def main(argv=None) -> int:
     recall = totals["correct"] / totals["true"] if totals["true"] else 0.0
     f1 = 2 * totals["correct"] / (totals["true"] + totals["named"])
     minutes = between / 30 / 60
+    idle = idle_commands(models, params, args.width, args.height, args.idle_frames,
+                         args.idle_clip, args.scene, cpu) if args.idle_frames else None
     report = {"sessions": sessions, "width": args.width, "height": args.height,
+              "distractors": args.distractors, "scene": args.scene, "idle": idle,
               **totals, "precision": precision, "recall": recall, "f1": f1,
               "frames": frames, "between_gesture_frames": between,
               "false_commands_per_10_min": 10 * totals["false"] / minutes if minutes else None,
@@ -86,7 +148,9 @@ def main(argv=None) -> int:
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(report, indent=1) + "\n")
     print(f"{args.sessions} rendered sessions of {args.per_session} gestures at "
-          f"{args.width}x{args.height}, pauses 0-15 frames, {frames} frames:")
+          f"{args.width}x{args.height}, pauses 0-15 frames"
+          f"{', distractors' if args.distractors else ''}, {args.scene} scene, "
+          f"{frames} frames:")
     print(f"  F1 {100 * f1:.2f} %  precision {100 * precision:.2f} %  recall "
           f"{100 * recall:.2f} %")
     print(f"  false commands {totals['false']} ({report['false_commands_per_10_min']:.1f} per "
@@ -94,6 +158,11 @@ def main(argv=None) -> int:
     print(f"  latency from a gesture's end to its name: median "
           f"{report['latency_median_frames']} frames, 95th percentile "
           f"{report['latency_p95_frames']}")
+    if idle is not None:
+        print(f"  distractors only: {idle['false_commands']} commands in {idle['frames']} "
+              f"frames ({idle['minutes']} minutes at 30 fps): "
+              f"{idle['false_commands_per_10_min']:.1f} per 10 minutes; by distractor "
+              f"{idle['by_distractor']}")
     print(f"  CPU s: {report['cpu_s']}; spotting {report['spotting_us_per_frame']} us per frame")
     return 0
 

@@ -8,7 +8,13 @@ synthetic corpus): each gesture keeps its own points; between two gestures the
 hand holds still for a pause (0 = none: it flows on), then travels from the
 end of one to the start of the next on a minimum-jerk path at the two
 gestures' own pace (their median step), so neither the speed nor a rest marks
-where a gesture begins.
+where a gesture begins. With ``distractors``, non-gesture motion
+(:mod:`sim.distractors`: out of view and back, a face scratch, a reach, a
+drift, a shapeless wave, a move in depth) comes before every gesture, scaled
+to the stream's gestures (their median extent is one gesture amplitude; a
+trajectory has no depth and no "out of view", so those two are only their
+motion in the picture); :func:`distractor_stream` makes streams of
+distractors alone.
 
 File layout (``.npz``, loadable with ``allow_pickle=False``)::
 
@@ -29,12 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.distractors import DISTRACTOR_KINDS, distractor_motion
 from sim.gesture_shapes import minimum_jerk
 
 from .datasets import TrajectorySet, save_npz
 
 __all__ = ["GestureStream", "join_stream", "subject_streams", "save_streams", "load_streams",
-           "check_range", "PAUSE_RANGE"]
+           "check_range", "PAUSE_RANGE", "distractor_stream", "gesture_extent"]
 
 #: Largest pause a stream may hold between two gestures, steps.
 PAUSE_RANGE = (0, 10_000)
@@ -112,12 +119,37 @@ def _transit(start: np.ndarray, end: np.ndarray, pace: float) -> np.ndarray:
     return start + s[:, None] * (end - start)
 
 
+def gesture_extent(parts) -> float:
+    """The median over ``parts`` of the larger side of each one's bounding box:
+    the unit :mod:`sim.distractors` paths are drawn in."""
+    sides = [np.ptp(np.asarray(p, dtype=np.float64).reshape(-1, 2), axis=0).max()
+             for p in parts]
+    extent = float(np.median(sides)) if sides else 0.0
+    return extent if extent > 0 else 1.0
+
+
+class _Distractors:
+    """Distractor paths for one stream: the kinds in rounds of a random order
+    (each as often as the others), scaled by ``unit``."""
+
+    def __init__(self, rng: np.random.Generator, unit: float):
+        self.rng, self.unit, self.kinds = rng, unit, []
+
+    def path(self, start: np.ndarray) -> np.ndarray:
+        if not self.kinds:
+            self.kinds.extend(self.rng.permutation(len(DISTRACTOR_KINDS)).tolist())
+        kind = DISTRACTOR_KINDS[self.kinds.pop(0)]
+        return start + self.unit * distractor_motion(kind, self.rng).offset[1:]
+
+
 def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
-                subject: int = 0) -> GestureStream:
+                subject: int = 0, distractors: bool = False) -> GestureStream:
     """The gestures ``parts`` (each (T_i, 2)) in order, as one stream: after
     each but the last a pause of ``pause`` = (MIN, MAX) steps (uniform; the
     hand still at the gesture's end), then the transit to the next one's start
-    at the pace of the two gestures (their median step)."""
+    at the pace of the two gestures (their median step). With
+    ``distractors``, a distractor (module docstring) and another pause come
+    before every gesture."""
     pause = check_range("pause", pause, *PAUSE_RANGE)
     parts = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in parts]
     labels = [str(label) for label in labels]
@@ -125,7 +157,14 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
         raise ValueError(f"parts and labels must be non-empty and as many, got {len(parts)} "
                          f"and {len(labels)}")
     pieces, spans, at = [], [], 0
+    others = _Distractors(rng, gesture_extent(parts)) if distractors else None
     for k, part in enumerate(parts):
+        if others is not None:
+            before = others.path(part[0])
+            hold = int(rng.integers(pause[0], pause[1] + 1))
+            for piece in (before, np.repeat(part[:1], hold, axis=0)):
+                pieces.append(piece)
+                at += len(piece)
         pieces.append(part)
         spans.append((at, at + len(part) - 1))
         at += len(part)
@@ -142,10 +181,11 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
 
 
 def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
-                    pause=(0, 15)) -> list[GestureStream]:
+                    pause=(0, 15), distractors: bool = False) -> list[GestureStream]:
     """Every subject's trajectories in a random order, ``per_stream`` to a stream
-    (the last one of a subject may be shorter), joined by :func:`join_stream`.
-    ``data`` needs subjects."""
+    (the last one of a subject may be shorter), joined by :func:`join_stream`
+    (with ``distractors``: a distractor before every gesture). ``data`` needs
+    subjects."""
     if data.subject is None:
         raise ValueError("the dataset has no subject (or writer) key: streams are per person")
     if isinstance(per_stream, bool) or not isinstance(per_stream, (int, np.integer)) \
@@ -159,8 +199,32 @@ def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
             chosen = order[start:start + per_stream]
             streams.append(join_stream([data.trajectory(i) for i in chosen],
                                        data.label[chosen], rng, pause=pause,
-                                       subject=int(subject)))
+                                       subject=int(subject), distractors=distractors))
     return streams
+
+
+def distractor_stream(start, unit: float, steps: int, rng: np.random.Generator, *,
+                      pause=(0, 15), subject: int = 0) -> GestureStream:
+    """A stream of ``steps`` steps of distractors alone from ``start`` (x, y),
+    one after another with a pause of ``pause`` steps after each, drawn in
+    units of ``unit`` (a gesture's extent, :func:`gesture_extent`): no
+    gesture, so anything named in it is a false command."""
+    pause = check_range("pause", pause, *PAUSE_RANGE)
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) \
+            or not 1 <= steps <= 10_000_000:
+        raise ValueError(f"steps must be an integer in [1, 10000000], got {steps!r}")
+    if not (np.isfinite(unit) and unit > 0):
+        raise ValueError(f"unit must be a positive number, got {unit!r}")
+    start = np.asarray(start, dtype=np.float64).reshape(1, 2)
+    others = _Distractors(rng, float(unit))
+    pieces, at = [start], 1
+    while at < steps:
+        for piece in (others.path(start[0]),
+                      np.repeat(start, int(rng.integers(pause[0], pause[1] + 1)), axis=0)):
+            pieces.append(piece)
+            at += len(piece)
+    return GestureStream(np.concatenate(pieces)[:steps], np.zeros((0, 2), np.int64),
+                         np.zeros(0, str), subject)
 
 
 def save_streams(streams, path) -> None:

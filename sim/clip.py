@@ -10,7 +10,11 @@ Layout of a clip directory::
 A rendered clip (``stereogest render``) knows its truth: ``gesture``, the
 :data:`TRUTH_FIELDS` and ``truth.csv``. A rendered sequence (``render
 --sequence``) also holds ``sequence``: every gesture with its motion span, in
-order; its ``gesture`` is the last one and ``motion_frames`` spans them all. Footage (``stereogest clip``, from
+order; its ``gesture`` is the last one and ``motion_frames`` spans them all.
+With ``--distractors`` it holds ``distractors`` too: every non-gesture motion
+(:data:`sim.distractors.DISTRACTOR_KINDS`) with its span; a clip of
+distractors only has an empty ``sequence``, no ``gesture``, and
+``motion_frames`` spans the distractors. Footage (``stereogest clip``, from
 video files or cameras) has none of them; ``gesture`` may still label it, and
 ``source`` says where the frames came from. Every command that reads clips
 accepts both.
@@ -40,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.distractors import DISTRACTOR_KINDS
 from sim.gesture_shapes import GESTURE_NAMES
 
 __all__ = [
@@ -107,7 +112,11 @@ class Clip:
         Number of hand pixels in the left image.
     sequence : tuple of (str, int, int), optional
         A rendered sequence: every gesture and its motion span (first, last),
-        in order, inside ``motion_frames``, the last one being ``gesture``.
+        in order, inside ``motion_frames``, the last one being ``gesture``;
+        empty in a clip of distractors only.
+    distractors : tuple of (str, int, int), optional
+        A rendered sequence with non-gesture motion: every distractor's kind
+        and span (first, last), in order, none overlapping a gesture.
     renderer : dict
         Extra JSON-serialisable metadata (renderer parameters).
     source : dict
@@ -125,6 +134,7 @@ class Clip:
     hand_xy: np.ndarray | None = None
     hand_area: np.ndarray | None = None
     sequence: tuple | None = None
+    distractors: tuple | None = None
     renderer: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
 
@@ -176,6 +186,9 @@ class Clip:
         if self.sequence is not None:
             meta["sequence"] = [{"gesture": g, "motion_frames": [int(a), int(b)]}
                                 for g, a, b in self.sequence]
+        if self.distractors is not None:
+            meta["distractors"] = [{"kind": k, "frames": [int(a), int(b)]}
+                                   for k, a, b in self.distractors]
         if self.renderer:
             meta["renderer"] = self.renderer
         if self.source:
@@ -216,7 +229,9 @@ def _check_metadata(meta, where: str) -> dict:
             raise ValueError(f"{where}: missing field '{key}'")
     truth = [key for key in TRUTH_FIELDS if key in meta]
     if truth:
-        for key in ("gesture",) + TRUTH_FIELDS:
+        # a clip of distractors only (an empty sequence) names no gesture
+        needed = TRUTH_FIELDS if meta.get("sequence") == [] else ("gesture",) + TRUTH_FIELDS
+        for key in needed:
             if key not in meta:
                 raise ValueError(f"{where}: missing field '{key}' (a rendered clip has "
                                  f"'gesture' and all of {', '.join(TRUTH_FIELDS)}; footage "
@@ -257,13 +272,41 @@ def _check_metadata(meta, where: str) -> dict:
             raise bad(key, "a JSON object")
     if "sequence" in meta:
         _check_sequence(meta, bad)
+    if "distractors" in meta:
+        _check_distractors(meta, bad)
     return meta
+
+
+def _check_distractors(meta, bad) -> None:
+    expected = ("a list of {\"kind\": KIND, \"frames\": [first, last]} in order, inside the "
+                f"clip, none overlapping a gesture; KIND one of {', '.join(DISTRACTOR_KINDS)}")
+    entries = meta["distractors"]
+    if "sequence" not in meta or not isinstance(entries, list):
+        raise bad("distractors", expected)
+    gestures = [e["motion_frames"] for e in meta["sequence"]]
+    previous = -1
+    for entry in entries:
+        if not isinstance(entry, dict) or set(entry) != {"kind", "frames"} \
+                or entry["kind"] not in DISTRACTOR_KINDS:
+            raise bad("distractors", expected)
+        span = entry["frames"]
+        if (not isinstance(span, list) or len(span) != 2 or not all(_is_int(v) for v in span)
+                or not previous < span[0] <= span[1] < meta["frames"]
+                or any(span[0] <= b and a <= span[1] for a, b in gestures)):
+            raise bad("distractors", expected)
+        previous = span[1]
+    if not meta["sequence"] and (not entries or [entries[0]["frames"][0],
+                                                  entries[-1]["frames"][1]]
+                                 != list(meta["motion_frames"])):
+        raise bad("distractors", expected + " (without gestures: spanning motion_frames)")
 
 
 def _check_sequence(meta, bad) -> None:
     expected = ("a non-empty list of {\"gesture\": NAME, \"motion_frames\": [first, last]} "
                 "in order, inside motion_frames, the last gesture being 'gesture'")
     seq = meta["sequence"]
+    if seq == [] and "gesture" not in meta and "distractors" in meta:
+        return                            # distractors only (checked there)
     if "motion_frames" not in meta or not isinstance(seq, list) or not seq:
         raise bad("sequence", expected)
     lo, hi = meta["motion_frames"]
@@ -515,13 +558,15 @@ def load_clip(path, mmap: bool = True) -> Clip:
                     renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     hand_xy, hand_area, moving = _load_truth(root / _TRUTH, meta["frames"])
 
-    clip = Clip(gesture=meta["gesture"], seed=meta["seed"], fps=meta["fps"],
+    clip = Clip(gesture=meta.get("gesture"), seed=meta["seed"], fps=meta["fps"],
                 hand_disparity=meta["hand_disparity"],
                 face_disparity=meta["face_disparity"],
                 motion_frames=(meta["motion_frames"][0], meta["motion_frames"][1]),
                 left=left, right=right, hand_xy=hand_xy, hand_area=hand_area,
                 sequence=tuple((e["gesture"], *e["motion_frames"]) for e in meta["sequence"])
                 if "sequence" in meta else None,
+                distractors=tuple((e["kind"], *e["frames"]) for e in meta["distractors"])
+                if "distractors" in meta else None,
                 renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     _check_truth_arrays(hand_xy, hand_area, clip.frames, _TRUTH)
     mismatch = np.flatnonzero(moving != clip.moving)

@@ -46,6 +46,7 @@ import numpy as np
 
 from sim.clip import MAX_DISPARITY, Clip, round_truth
 from sim.difficulties import Difficulties, camera_gains
+from sim.distractors import DISTRACTOR_KINDS, check_kind, distractor_motion
 from sim.gesture_shapes import GESTURE_NAMES, gesture_id, gesture_path, random_time_warp
 from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
@@ -53,7 +54,7 @@ from sim.model.ycbcr import ycbcr444_to_422
 __all__ = [
     "REFERENCE_WIDTH", "REFERENCE_HEIGHT", "LAYER_LABELS", "NOISE_SIGMA_Y",
     "NOISE_SIGMA_C", "RIGHT_Y_GAIN", "RIGHT_Y_OFFSET", "StereoScene", "render_clip",
-    "render_sequence", "SEQUENCE_LEAD", "SEQUENCE_TAIL",
+    "render_sequence", "SEQUENCE_LEAD", "SEQUENCE_TAIL", "DistractorScene", "render_scene",
     "WIDTH_RANGE", "HEIGHT_RANGE", "MAX_SEGMENT_FRAMES",
 ]
 
@@ -84,6 +85,10 @@ _ASPECT_RANGE = (0.9, 1.1)
 _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = range(1, 6)
 _STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE, _STREAM_FOREARM = 6, 7, 8, 9
 _STREAM_CLUTTER, _STREAM_INTRUDER, _STREAM_SEQUENCE = 10, 11, 12
+_STREAM_DISTRACTOR = 13
+#: ``gesture_id`` of a distractor scene's random streams: this plus its index
+#: (apart from the gestures' 0..6).
+_DISTRACTOR_ID = 1000
 #: The intruder ball (reference px radius), its disparity below the hand's.
 _INTRUDER_RADIUS, _INTRUDER_BELOW_HAND = 26.0, 2
 #: Forearm (reference px): radius, wrist below the palm centre, segments of one
@@ -239,6 +244,9 @@ class StereoScene:
         First and last (inclusive) frame of the motion.
     hand_anchor : (frames, 2) int64
         Palm centre ``(x, y)`` of the hand in the left image, per frame.
+    hand_disparities : (frames,) int64
+        The hand's disparity per frame (``hand_disparity`` but in a ``depth``
+        distractor, :class:`DistractorScene`).
     amplitude : float
         Gesture amplitude in pixels (may be reduced so that the hand stays in view).
     rest : (float, float)
@@ -439,6 +447,7 @@ class StereoScene:
             if span[axis] > 0:
                 amplitude = min(amplitude, room[axis] / span[axis])
         self.amplitude = float(amplitude)
+        self._room = (room_lo, room_hi)
         rest = np.clip(np.array(self.chest), room_lo + 0.5 - amplitude * lo,
                        room_hi - 0.5 - amplitude * hi)
         self.rest = (float(rest[0]), float(rest[1]))
@@ -447,6 +456,7 @@ class StereoScene:
         anchors[:] = rest
         anchors[pre:pre + motion] = rest + amplitude * path[1:-1]
         self.hand_anchor = np.rint(anchors).astype(np.int64)
+        self.hand_disparities = np.full(self.frames, self.disparities["hand"], np.int64)
 
     def _build_static_layers(self) -> None:
         """Background, hair, face and torso, composed once per camera."""
@@ -708,8 +718,9 @@ class StereoScene:
         """View and sprite slices of the hand in a view whose layer shift is ``shift``
         (at ``anchor`` instead of the frame's palm centre, if given)."""
         ax, ay = self.hand_anchor[frame] if anchor is None else anchor
-        layer = _Layer("hand", self.disparities["hand"], int(ay) + self._sprite_offset[0],
-                       int(ax) + self._sprite_offset[1], self._sprite_mask, None)
+        layer = _Layer("hand", int(self.hand_disparities[frame]),
+                       int(ay) + self._sprite_offset[0], int(ax) + self._sprite_offset[1],
+                       self._sprite_mask, None)
         return self._view_region(layer, shift)
 
     def views444(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
@@ -718,7 +729,8 @@ class StereoScene:
         anchors = self._blur_anchors(frame) if self.difficulties.motion_blur else [None]
         views = []
         for view, sprite, shift in (("left", self._sprite_left, 0),
-                                    ("right", self._sprite_right, self.disparities["hand"])):
+                                    ("right", self._sprite_right,
+                                     int(self.hand_disparities[frame]))):
             total = None
             for anchor in anchors:
                 image = self._static[view].copy()
@@ -767,7 +779,7 @@ class StereoScene:
             return []
         unit = axis / length
         normal = np.array([-unit[1], unit[0]])
-        near = self.disparities["hand"] - 1
+        near = int(self.hand_disparities[frame]) - 1
         far = self.disparities["torso"] + 1
         radius = self._arm_radius
         out = []
@@ -823,17 +835,17 @@ class StereoScene:
             out.append(tuple(int(v) for v in np.rint(point)))
         return out
 
-    def _check_view(self, view) -> int:
+    def _check_view(self, view, frame: int) -> int:
         """Layer shift of a view: 0 for the left camera, the disparity for the right."""
         if view not in ("left", "right"):
             raise ValueError(f"view must be 'left' or 'right', got {view!r}")
-        return self.disparities["hand"] if view == "right" else 0
+        return int(self.hand_disparities[frame]) if view == "right" else 0
 
     def hand_mask(self, frame: int, view: str = "left") -> np.ndarray:
         """(H, W) bool: the hand's pixels in the left (or right) image."""
         frame = self._check_frame(frame)
         mask = np.zeros((self.height, self.width), bool)
-        region = self._hand_region(frame, self._check_view(view))
+        region = self._hand_region(frame, self._check_view(view, frame))
         if region is not None:
             (vy, vx), (ly, lx) = region
             mask[vy, vx] = self._sprite_mask[ly, lx]
@@ -865,7 +877,7 @@ class StereoScene:
         if self.difficulties.forearm:
             self._paste_forearm(None, disparity, frame, view)
         self._paste_intruder(None, disparity, frame, view)
-        disparity[hand] = self.disparities["hand"]
+        disparity[hand] = self.hand_disparities[frame]
         return disparity
 
     def hand_truth(self, frame: int) -> tuple[float, float, int]:
@@ -939,6 +951,98 @@ class StereoScene:
         }
 
 
+class DistractorScene(StereoScene):
+    """The person and room of ``StereoScene(..., seed)`` making a non-gesture
+    motion (:mod:`sim.distractors`) from the rest position ``gesture``'s scene
+    would have, and back (issue 28).
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`sim.distractors.DISTRACTOR_KINDS`.
+    seed : int
+    index : int in [0, 65535]
+        Which distractor of a stream: the path and the sensor noise depend on
+        ``(seed, index)``.
+    gesture : str
+        The gesture whose rest position the hand starts from.
+    n_pre_rest, n_post_rest : int
+        Frames of rest before and after the motion.
+
+    The other parameters are :class:`StereoScene`'s. ``motion_span`` is the
+    distractor's; the hand leaves the picture in ``out-of-view`` (its truth is
+    then NaN with area 0) and its disparity leaves the band in ``depth``
+    (:attr:`hand_disparities`).
+    """
+
+    def __init__(self, kind: str, seed: int, width: int = REFERENCE_WIDTH,
+                 height: int = REFERENCE_HEIGHT, *, index: int = 0, gesture: str = "stop",
+                 fps: int = 30, hand_disparity: int = 40, face_disparity: int = 24,
+                 torso_disparity: int = 28, background_disparity: int | None = None,
+                 n_pre_rest: int = 0, n_post_rest: int = 0, noise: bool = True,
+                 difficulties: Difficulties | None = None) -> None:
+        self.kind = check_kind(kind)
+        self.index = check_int("index", index, 0, 65535)
+        super().__init__(gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
+                         face_disparity=face_disparity, torso_disparity=torso_disparity,
+                         background_disparity=background_disparity, n_pre_rest=n_pre_rest,
+                         n_motion=2, n_post_rest=n_post_rest, noise=noise,
+                         difficulties=difficulties)
+
+    def _plan_motion(self, n_pre_rest, n_motion, n_post_rest) -> None:
+        super()._plan_motion(n_pre_rest, n_motion, n_post_rest)   # rest and room
+        self.gesture_id = _DISTRACTOR_ID + self.index             # own noise, exposure
+        unit = _AMPLITUDE_PX * self.scale
+        rest = np.array(self.rest)
+        off_y = self._sprite_offset[0]
+        path = distractor_motion(
+            self.kind, self._rng(_STREAM_DISTRACTOR, self.index), fps=self.fps,
+            face=(np.array(self.face_center) - rest) / unit,
+            exit_below=(self.height + 2 - off_y - rest[1]) / unit)
+        pre, post = self.n_pre_rest, self.n_post_rest
+        self.n_motion = path.frames
+        self.frames = pre + path.frames + post
+        self.motion_span = (pre, pre + path.frames - 1)
+        room_lo, room_hi = self._room
+        anchors = np.empty((self.frames, 2))
+        anchors[:] = rest
+        moved = rest + unit * path.offset
+        moved[:, 0] = np.clip(moved[:, 0], room_lo[0], room_hi[0])
+        moved[:, 1] = np.maximum(moved[:, 1], room_lo[1])
+        if self.kind != "out-of-view":
+            moved[:, 1] = np.minimum(moved[:, 1], room_hi[1])
+        anchors[pre:pre + path.frames] = moved
+        self.hand_anchor = np.rint(anchors).astype(np.int64)
+        disparity = np.full(self.frames, float(self.disparities["hand"]))
+        disparity[pre:pre + path.frames] += path.disparity
+        self.hand_disparities = np.clip(np.rint(disparity), 0,
+                                        MAX_DISPARITY - 1).astype(np.int64)
+
+    def parameters(self) -> dict:
+        return dict(super().parameters(), distractor=self.kind, distractor_index=self.index)
+
+
+def render_scene(scene: StereoScene) -> Clip:
+    """Every frame of ``scene`` and its truth as a :class:`~sim.clip.Clip`
+    (``gesture``: the scene's, None for a :class:`DistractorScene`)."""
+    shape = (scene.frames, scene.height, 2 * scene.width)
+    left = np.empty(shape, np.uint8)
+    right = np.empty(shape, np.uint8)
+    hand_xy = np.empty((scene.frames, 2))
+    hand_area = np.empty(scene.frames, np.int64)
+    for frame in range(scene.frames):
+        left[frame], right[frame] = scene.stereo_frame(frame)
+        x, y, area = scene.hand_truth(frame)
+        hand_xy[frame] = (x, y)
+        hand_area[frame] = area
+    return Clip(gesture=None if isinstance(scene, DistractorScene) else scene.gesture,
+                seed=scene.seed, fps=scene.fps,
+                hand_disparity=scene.disparities["hand"],
+                face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
+                left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
+                renderer=scene.parameters())
+
+
 def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
                 height: int = REFERENCE_HEIGHT, *, fps: int = 30, hand_disparity: int = 40,
                 face_disparity: int = 24, torso_disparity: int = 28,
@@ -960,26 +1064,11 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
     ValueError
         A parameter out of range (the message names it and the range).
     """
-    scene = StereoScene(gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
-                        face_disparity=face_disparity, torso_disparity=torso_disparity,
-                        background_disparity=background_disparity, n_pre_rest=n_pre_rest,
-                        n_motion=n_motion, n_post_rest=n_post_rest, noise=noise,
-                        difficulties=difficulties)
-    shape = (scene.frames, scene.height, 2 * scene.width)
-    left = np.empty(shape, np.uint8)
-    right = np.empty(shape, np.uint8)
-    hand_xy = np.empty((scene.frames, 2))
-    hand_area = np.empty(scene.frames, np.int64)
-    for frame in range(scene.frames):
-        left[frame], right[frame] = scene.stereo_frame(frame)
-        x, y, area = scene.hand_truth(frame)
-        hand_xy[frame] = (x, y)
-        hand_area[frame] = area
-    return Clip(gesture=gesture, seed=scene.seed, fps=scene.fps,
-                hand_disparity=scene.disparities["hand"],
-                face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
-                left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
-                renderer=scene.parameters())
+    return render_scene(StereoScene(
+        gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
+        face_disparity=face_disparity, torso_disparity=torso_disparity,
+        background_disparity=background_disparity, n_pre_rest=n_pre_rest, n_motion=n_motion,
+        n_post_rest=n_post_rest, noise=noise, difficulties=difficulties))
 
 
 #: Frames of rest before the first gesture of a sequence (before the others:
@@ -989,46 +1078,99 @@ SEQUENCE_LEAD = 10
 SEQUENCE_TAIL = 30
 
 
+#: Most frames ``render_sequence(frames=...)`` renders.
+MAX_SEQUENCE_FRAMES = 1_000_000
+
+
 def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
                     height: int = REFERENCE_HEIGHT, *, pause=(0, 15), fps: int = 30,
-                    noise: bool = True, difficulties: Difficulties | None = None) -> Clip:
+                    noise: bool = True, difficulties: Difficulties | None = None,
+                    distractors: bool = False, frames: int | None = None) -> Clip:
     """One clip of several gestures one after another (issue 28): the same
     person and room (``seed``), each gesture as :func:`render_clip` draws it
     (every gesture path starts and ends at the rest position in front of the
     chest), a pause of ``pause`` = (min, max) frames of rest between two
     gestures (0: the hand flows from one into the next), drawn from ``seed``.
 
+    With ``distractors``, a non-gesture motion (:class:`DistractorScene`, the
+    kinds of :data:`sim.distractors.DISTRACTOR_KINDS` in a seeded order, each
+    as often as the others) comes before every gesture, followed by a pause
+    drawn from ``pause``. With no gestures (``[]``) and ``distractors``, the
+    clip holds distractors only, one after another, cut at ``frames`` frames
+    (required then, and only then).
+
     Returns
     -------
     Clip
-        ``sequence`` holds every gesture and its motion span; ``gesture`` is
-        the last one and ``motion_frames`` spans them all.
+        ``sequence`` holds every gesture and its motion span (empty without
+        gestures); ``distractors`` every distractor's kind and span (None
+        without); ``gesture`` is the last gesture (None without) and
+        ``motion_frames`` spans the gestures (without gestures: the
+        distractors).
     """
     gestures = list(gestures)
-    if not gestures or any(g not in GESTURE_NAMES for g in gestures):
-        raise ValueError(f"sequence must name one or more of {', '.join(GESTURE_NAMES)}, "
-                         f"got {','.join(map(str, gestures)) or 'nothing'}")
+    if any(g not in GESTURE_NAMES for g in gestures) or not (gestures or distractors):
+        raise ValueError(f"sequence must name one or more of {', '.join(GESTURE_NAMES)} "
+                         f"(or none, with distractors), got "
+                         f"{','.join(map(str, gestures)) or 'nothing'}")
+    if gestures and frames is not None:
+        raise ValueError("frames is for a clip of distractors only (no gestures); a sequence "
+                         "of gestures is as long as they are")
+    if not gestures:
+        if frames is None:
+            raise ValueError("a clip of distractors only needs frames (how long it is)")
+        frames = check_int("frames", frames, 1, MAX_SEQUENCE_FRAMES)
     lo, hi = pause
     check_int("pause", lo, 0, MAX_SEGMENT_FRAMES)
     check_int("pause", hi, lo, MAX_SEGMENT_FRAMES)
-    rng = np.random.default_rng([check_int("seed", seed, 0, 2 ** 63 - 1), _STREAM_SEQUENCE])
-    parts, spans, offset = [], [], 0
-    for k, gesture in enumerate(gestures):
-        after = SEQUENCE_TAIL if k == len(gestures) - 1 else int(rng.integers(lo, hi + 1))
-        part = render_clip(gesture, seed, width, height, fps=fps,
-                           n_pre_rest=SEQUENCE_LEAD if k == 0 else 0, n_post_rest=after,
-                           noise=noise, difficulties=difficulties)
+    seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+    rng = np.random.default_rng([seed, _STREAM_SEQUENCE])
+    others = np.random.default_rng([seed, _STREAM_DISTRACTOR])
+    scene_options = dict(fps=fps, noise=noise, difficulties=difficulties)
+    parts, spans, extra, offset = [], [], [], 0
+
+    def add(part, name, into):
+        nonlocal offset
         first, last = part.motion_frames
-        spans.append((gesture, first + offset, last + offset))
+        into.append((name, first + offset, last + offset))
         offset += part.frames
         parts.append(part)
-    head = parts[0]
-    return Clip(gesture=gestures[-1], seed=head.seed, fps=head.fps,
+
+    kinds = []
+
+    def distractor(before, after):
+        if not kinds:                     # each kind as often as the others
+            kinds.extend(others.permutation(len(DISTRACTOR_KINDS)).tolist())
+        kind = DISTRACTOR_KINDS[kinds.pop(0)]
+        scene = DistractorScene(kind, seed, width, height, index=len(extra),
+                                gesture=gestures[len(spans)] if gestures else "stop",
+                                n_pre_rest=before, n_post_rest=after, **scene_options)
+        add(render_scene(scene), kind, extra)
+
+    if not gestures:
+        while offset < frames:
+            distractor(SEQUENCE_LEAD if not parts else 0, int(others.integers(lo, hi + 1)))
+    for k, gesture in enumerate(gestures):
+        after = SEQUENCE_TAIL if k == len(gestures) - 1 else int(rng.integers(lo, hi + 1))
+        if distractors:
+            distractor(SEQUENCE_LEAD if k == 0 else 0, int(others.integers(lo, hi + 1)))
+        add(render_clip(gesture, seed, width, height,
+                        n_pre_rest=SEQUENCE_LEAD if k == 0 and not distractors else 0,
+                        n_post_rest=after, **scene_options), gesture, spans)
+    # the scene's description: the first gesture's (a distractor's names its kind)
+    head = next((p for p in parts if p.gesture is not None), parts[0])
+    end = frames if not gestures else offset
+    extra = [(kind, first, min(last, end - 1)) for kind, first, last in extra if first < end]
+    covered = spans if gestures else extra
+    renderer = dict(head.renderer, sequence_pause=[lo, hi])
+    if distractors:
+        renderer["distractors"] = True
+    return Clip(gesture=gestures[-1] if gestures else None, seed=head.seed, fps=head.fps,
                 hand_disparity=head.hand_disparity, face_disparity=head.face_disparity,
-                motion_frames=(spans[0][1], spans[-1][2]),
-                left=np.concatenate([p.left for p in parts]),
-                right=np.concatenate([p.right for p in parts]),
-                hand_xy=np.concatenate([p.hand_xy for p in parts]),
-                hand_area=np.concatenate([p.hand_area for p in parts]),
-                sequence=tuple(spans),
-                renderer=dict(head.renderer, sequence_pause=[lo, hi]))
+                motion_frames=(covered[0][1], covered[-1][2]),
+                left=np.concatenate([p.left for p in parts])[:end],
+                right=np.concatenate([p.right for p in parts])[:end],
+                hand_xy=np.concatenate([p.hand_xy for p in parts])[:end],
+                hand_area=np.concatenate([p.hand_area for p in parts])[:end],
+                sequence=tuple(spans), distractors=tuple(extra) if distractors else None,
+                renderer=renderer)

@@ -26,6 +26,15 @@ a run is named once ``end_delay`` frames pass without a better one, or when
 the source says the hand left or stopped (:meth:`ContinuousRecogniser.flush`).
 A named gesture's symbols cannot start another: every path that entered a
 class model at or before its last step is dropped, so nothing is named twice.
+
+A gesture is one motion: with ``max_gap`` > 0, a symbol that comes more than
+``max_gap`` frames after the one before (the hand held still, or crept,
+in between) ends every path inside a class model, so no gesture spans such a
+pause. Left-right HMMs do not model time (a state's duration is geometric),
+and motion that is no gesture (a reach for a cup and back, a slow drift)
+often traces a gesture's shape with a hold in it; ``max_gap`` is learned from
+the training gestures (:func:`recognition.continuous.symbol_gap`), the
+longest wait between two symbols of any of them.
 """
 from __future__ import annotations
 
@@ -41,9 +50,12 @@ __all__ = ["Detection", "ContinuousRecogniser", "threshold_model", "SPOTTING_DEF
 #: ``spotting`` entry may set each (validated by :func:`check_spotting`).
 #: ``step`` is the travel per symbol (:class:`sw_hps.orientation.DistanceSymbols`)
 #: in pixels of a :data:`STEP_WIDTH`-pixel-wide frame, scaled to the frame's width.
-SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 8, "min_symbols": 4, "step": 20}
+#: ``max_gap`` (frames; 0 = no limit) is the longest wait between two symbols
+#: of one gesture (module docstring).
+SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 8, "min_symbols": 4, "step": 20,
+                     "max_gap": 0}
 _RANGES = {"threshold_bias": (-10.0, 10.0), "end_delay": (1, 1000), "min_symbols": (1, 1000),
-           "step": (1, 640)}
+           "step": (1, 640), "max_gap": (0, 10000)}
 #: The frame width ``step`` is given at (the board's 640 x 480).
 STEP_WIDTH = 640
 _NEG = -np.inf
@@ -127,9 +139,9 @@ class ContinuousRecogniser:
     ----------
     models : sw_hps.hmm.GestureModels
         Discrete class models (one left-right HMM per class).
-    threshold_bias, end_delay, min_symbols, step
-        :data:`SPOTTING_DEFAULTS`; ``end_delay`` in frames; ``step`` is kept
-        (:attr:`symbol_step`) for whoever makes the symbols.
+    threshold_bias, end_delay, min_symbols, step, max_gap
+        :data:`SPOTTING_DEFAULTS`; ``end_delay`` and ``max_gap`` in frames;
+        ``step`` is kept (:attr:`symbol_step`) for whoever makes the symbols.
 
     Call :meth:`step` once per frame with that frame's symbol (None when the
     hand did not move enough for one), :meth:`flush` when the hand leaves or
@@ -146,6 +158,7 @@ class ContinuousRecogniser:
         self.end_delay = opts["end_delay"]
         self.min_symbols = opts["min_symbols"]
         self.symbol_step = opts["step"]
+        self.max_gap = opts["max_gap"]
         self.class_names = tuple(models.class_names)
         hmms = list(models.models)
         offsets = np.concatenate([[0], np.cumsum([m.num_states for m in hmms])])
@@ -178,6 +191,7 @@ class ContinuousRecogniser:
         self._symbols = 0
         self._pending = None
         self._longer = False             # a longer gesture may hold the pending one
+        self._symbol_frame = None        # the frame of the last symbol
 
     @property
     def pending(self) -> bool:
@@ -209,6 +223,10 @@ class ContinuousRecogniser:
             raise ValueError(f"symbol must be in [0, {self._log_b.shape[0] - 1}] or None, "
                              f"got {symbol}")
         k = self._symbols
+        if self.max_gap and self._symbol_frame is not None \
+                and frame - self._symbol_frame > self.max_gap:
+            self._v = np.full(len(self._v), _NEG)     # no gesture spans the pause
+        self._symbol_frame = frame
         loop = self._loop
         # class models: stay on the chain, or enter from the loop
         moved = self._v[:, None] + self._log_a

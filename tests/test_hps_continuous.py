@@ -85,6 +85,22 @@ def test_flush_names_a_gesture_that_ends_with_the_source():
     assert rec.flush() == []                              # never twice
 
 
+def test_max_gap_cuts_a_gesture_that_holds_still_in_the_middle():
+    """max_gap: a gesture is one motion. The same symbols with a pause of more
+    than max_gap frames between two of them are no gesture; with a shorter
+    pause, or with no limit (0), they are."""
+    first, second = [0] * 3 + [2] * 3, [0] * 3 + [2] * 3
+    for pause, max_gap, named in ((12, 10, []), (8, 10, ["up-right"]), (30, 0, ["up-right"])):
+        frames = [None] * 4 + first + [None] * pause + second + [None] * 20
+        rec = ContinuousRecogniser(MODELS, end_delay=5, max_gap=max_gap)
+        assert [d.name for d in _run(rec, frames)] == named, (pause, max_gap)
+    # after the pause a whole gesture is named from its own first symbol
+    whole = [0] * 3 + [2] * 3 + [0] * 3 + [2] * 3
+    frames = first + [None] * 12 + whole + [None] * 20
+    named = _run(ContinuousRecogniser(MODELS, end_delay=5, max_gap=10), frames)
+    assert [(d.name, d.first) for d in named] == [("up-right", 18)]
+
+
 def test_threshold_model_rows_sum_to_one():
     log_a, log_b = threshold_model(MODELS.models)
     assert log_a.shape == (16, 16) and log_b.shape == (16, 8)
@@ -95,7 +111,8 @@ def test_threshold_model_rows_sum_to_one():
 @pytest.mark.parametrize("options, name", [
     (dict(end_delay=0), "end_delay"), (dict(min_symbols=1.5), "min_symbols"),
     (dict(threshold_bias=float("nan")), "threshold_bias"),
-    (dict(threshold_bias=True), "threshold_bias")])
+    (dict(threshold_bias=True), "threshold_bias"), (dict(max_gap=-1), "max_gap"),
+    (dict(max_gap=2.5), "max_gap")])
 def test_bad_options_name_the_option(options, name):
     with pytest.raises(ValueError, match=name):
         ContinuousRecogniser(MODELS, **options)
@@ -131,6 +148,6 @@ def test_spotting_options_live_in_the_model_file(tmp_path):
     save_models(models, path)
     loaded = load_models(path)
     assert loaded.spotting == {"threshold_bias": -0.5, "end_delay": 6, "min_symbols": 4,
-                               "step": 20}
+                               "step": 20, "max_gap": 0}
     rec = ContinuousRecogniser(loaded, **loaded.spotting)
     assert (rec.threshold_bias, rec.end_delay) == (-0.5, 6)

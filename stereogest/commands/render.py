@@ -1,5 +1,9 @@
 """Render a synthetic stereo clip of one gesture (--gesture), or of several one
-after another (--sequence, with --pause frames of rest between them).
+after another (--sequence, with --pause frames of rest between them), with
+--distractors non-gesture motion before each gesture (the hand leaves the
+picture, scratches the face, reaches to the side, drifts, waves without a
+shape, moves across the disparity band); --sequence none --distractors
+--frames N renders distractors only.
 
 A person in front of a textured wall performs one of the seven gestures of the
 thesis (Fig. 16) with a skin-coloured, textured hand held in front of the chest.
@@ -29,7 +33,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "right side, stop = a downward-pointing triangle")
     parser.add_argument("--sequence", metavar="NAME[,NAME...]", default=None,
                         help="instead of --gesture: these gestures one after another in "
-                             "one clip (the truth names every gesture's frame span)")
+                             "one clip (the truth names every gesture's frame span); 'none' "
+                             "with --distractors and --frames: no gesture")
+    parser.add_argument("--distractors", action="store_true",
+                        help="--sequence: non-gesture motion before every gesture, each "
+                             "kind as often as the others in a seeded order (the truth "
+                             "names their spans too)")
+    parser.add_argument("--frames", type=int, default=None, metavar="N",
+                        help="--sequence none --distractors: the clip's length in frames "
+                             "(1..1000000)")
     parser.add_argument("--pause", metavar="MIN-MAX", default="0-15",
                         help="--sequence: frames of rest between two gestures, drawn from "
                              "the seed (0 = none: the hand flows into the next; default 0-15)")
@@ -57,28 +69,43 @@ def run(args: argparse.Namespace) -> int:
     from stereogest.commands import check_clip_output
 
     from recognition.streams import check_range
-    from sim.render import MAX_SEGMENT_FRAMES, render_sequence
+    from sim.render import MAX_SEGMENT_FRAMES, MAX_SEQUENCE_FRAMES, render_sequence
     if (args.gesture is None) == (args.sequence is None):
         raise ValueError("give either --gesture NAME or --sequence NAME[,NAME...]")
+    if args.sequence is None and (args.distractors or args.frames is not None):
+        raise ValueError("--distractors and --frames go with --sequence")
     if args.sequence is not None:
         names = [n.strip() for n in args.sequence.split(",")]
+        if names == ["none"]:
+            names = []
+            if not args.distractors or args.frames is None:
+                raise ValueError("--sequence none needs --distractors and --frames N")
+        elif args.frames is not None:
+            raise ValueError("--frames goes with --sequence none (a sequence of gestures is "
+                             "as long as they are)")
         unknown = [n for n in names if n not in GESTURE_NAMES]
-        if unknown or not names:
-            raise ValueError(f"--sequence: names must be among {', '.join(GESTURE_NAMES)}, "
-                             f"got {args.sequence!r}")
+        if unknown or (not names and args.sequence.strip() != "none"):
+            raise ValueError(f"--sequence: names must be among {', '.join(GESTURE_NAMES)} "
+                             f"(or 'none'), got {args.sequence!r}")
+        if args.frames is not None and not 1 <= args.frames <= MAX_SEQUENCE_FRAMES:
+            raise ValueError(f"--frames must be in [1, {MAX_SEQUENCE_FRAMES}], got "
+                             f"{args.frames}")
         pause = check_range("--pause", args.pause, 0, MAX_SEGMENT_FRAMES)
     difficulties = scene_difficulties(args)
     check_clip_output(args.output)
     if args.sequence is not None:
         clip = render_sequence(names, args.seed, args.width, args.height, pause=pause,
-                               fps=args.fps, difficulties=difficulties)
+                               fps=args.fps, difficulties=difficulties,
+                               distractors=args.distractors, frames=args.frames)
     else:
         clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps,
                            difficulties=difficulties)
     path = save_clip(clip, args.output)
     first, last = clip.motion_frames
     what = args.gesture if args.sequence is None else \
-        ", ".join(f"{g} {a}-{b}" for g, a, b in clip.sequence)
+        ", ".join(f"{g} {a}-{b}" for g, a, b in clip.sequence) or "no gesture"
+    if clip.distractors:
+        what += " with distractors " + ", ".join(f"{k} {a}-{b}" for k, a, b in clip.distractors)
     print(f"rendered {what} (seed {args.seed}): {clip.frames} frames of "
           f"{clip.width}x{clip.height}, motion in frames {first}-{last} "
           f"({last - first + 1} frames), written to {path}")
@@ -90,5 +117,8 @@ def run(args: argparse.Namespace) -> int:
         if clip.sequence is not None:
             report["sequence"] = [{"gesture": g, "motion_frames": [a, b]}
                                   for g, a, b in clip.sequence]
+        if clip.distractors is not None:
+            report["distractors"] = [{"kind": k, "frames": [a, b]}
+                                     for k, a, b in clip.distractors]
         print(json.dumps(report))
     return 0
