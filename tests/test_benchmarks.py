@@ -163,3 +163,25 @@ def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
     assert report["true"] == 2 and report["sessions"][0]["seed"] == module.FIRST_SEED
     assert report["correct"] == 2 and report["false"] == 0
     assert "F1 100.00 %" in capsys.readouterr().out
+
+
+def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
+    """--distractors and --idle-frames: a distractor before the gesture, and a
+    clip of distractors alone whose every command is false, attributed to the
+    distractor it overlapped."""
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
+    spec = importlib.util.spec_from_file_location("continuous_sessions", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / "s.json"
+    assert module.main(["--sessions", "1", "--per-session", "1", "--distractors",
+                        "--idle-frames", "150", "--idle-clip", "100", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["distractors"] and report["true"] == 1
+    idle = report["idle"]
+    assert idle["frames"] == 150 and [c["frames"] for c in idle["clips"]] == [100, 50]
+    assert idle["false_commands"] == sum(c["false_commands"] for c in idle["clips"])
+    assert sum(idle["by_distractor"].values()) == idle["false_commands"]
+    assert all(c["distractors"] for c in idle["clips"])

@@ -42,3 +42,36 @@ def test_spot_stream_names_a_drawn_gesture():
     found = spot_stream(ContinuousRecogniser(MODELS, end_delay=5), stream.points, step=4)
     matched, _ = match_detections(found, stream.spans, stream.labels)
     assert [d.name for d in found] == ["up-right"] and matched == [0]
+
+
+def test_symbol_gap_is_the_longest_wait_inside_the_training_gestures():
+    """max_gap learned from gestures: the quantile of each trajectory's longest
+    wait between two symbols (the rests around a gesture do not count)."""
+    from recognition.continuous import symbol_gap
+    from recognition.datasets import TrajectorySet
+    # 4 px a frame, a symbol every 2 frames at step 8; one trajectory holds
+    # still for 9 frames in the middle (a wait of 9 + 2 frames between symbols)
+    run = [(4, 0)] * 8
+    plain = np.cumsum([(50, 50)] + [(0, 0)] * 5 + run + [(0, 0)] * 20, axis=0)
+    held = np.cumsum([(50, 50)] + run + [(0, 0)] * 9 + run, axis=0)
+    parts = [plain] * 9 + [held]
+    data = TrajectorySet(np.concatenate(parts).astype(float),
+                         np.concatenate([[0], np.cumsum([len(p) for p in parts])]),
+                         np.array(["a"] * 10), subject=np.arange(10))
+    assert symbol_gap(data, 8, quantile=1.0) == 11
+    assert symbol_gap(data, 8, quantile=0.5) == 2
+
+
+def test_distractors_alone_and_the_gap_limit():
+    """A stream of distractors alone names nothing it cannot: with the gap limit
+    a reach-and-hold that traces a gesture's shape is cut at its hold."""
+    from recognition.streams import distractor_stream
+    stream = distractor_stream((200, 200), 60.0, 3000, np.random.default_rng(3))
+    assert len(stream) == 3000 and len(stream.spans) == 0
+    # up-right with a hold of 30 frames between its halves: named without the
+    # limit, not with it
+    half = [(2, 0)] * 6 + [(0, -2)] * 6
+    points = np.cumsum([(100, 100)] + half + [(0, 0)] * 30 + half + [(0, 0)] * 15, axis=0)
+    free = spot_stream(ContinuousRecogniser(MODELS, end_delay=5), points, step=4)
+    cut = spot_stream(ContinuousRecogniser(MODELS, end_delay=5, max_gap=12), points, step=4)
+    assert [d.name for d in free] == ["up-right"] and cut == []

@@ -105,6 +105,28 @@ def test_bad_streams_are_refused():
         subject_streams(TrajectorySet.from_list([np.zeros((2, 2))], ["a"], [1]), 0)
 
 
+def test_distractors_before_every_gesture(dollar):
+    """With distractors the gestures keep their points and order; before each
+    one lies a distractor (scaled to the gestures) and a pause; without, the
+    streams are the same as before (the distractors draw nothing then)."""
+    from recognition.streams import gesture_extent
+    plain = subject_streams(dollar, 8, 2)
+    mixed = subject_streams(dollar, 8, 2, distractors=True)
+    assert len(plain) == len(mixed)
+    unit = gesture_extent([dollar.trajectory(i) for i in range(len(dollar))])
+    for a, b in zip(plain[:10], mixed[:10]):
+        assert list(a.labels) == list(b.labels) and len(b) > len(a)
+        for (f0, l0), (f1, l1) in zip(a.spans, b.spans):
+            assert np.array_equal(a.points[f0:l0 + 1], b.points[f1:l1 + 1])
+        assert b.spans[0][0] > 0               # a distractor before the first one
+        before = b.points[:b.spans[0][0]]
+        assert np.array_equal(before[-1], b.points[b.spans[0][0]])   # ends where it begins
+    reach = [np.ptp(s.points[:s.spans[0][0]], axis=0).max() for s in mixed[:30]]
+    assert np.median(reach) > 0.3 * unit
+    again = subject_streams(dollar, 8, 2, distractors=True)
+    assert all(np.array_equal(a.points, b.points) for a, b in zip(mixed, again))
+
+
 def test_cli_joins_a_dataset_into_streams(tmp_path, dollar):
     from stereogest import cli
     out = tmp_path / "streams.npz"
@@ -116,3 +138,10 @@ def test_cli_joins_a_dataset_into_streams(tmp_path, dollar):
     again = subject_streams(dollar, 8, 4, pause=(0, 3))
     assert all(np.allclose(a.points, b.points, atol=1e-3) and (a.spans == b.spans).all()
                for a, b in zip(streams, again))
+    out = tmp_path / "mixed.npz"
+    assert cli.main(["gestures", "--join", str(DOLLAR), "-o", str(out), "--distractors",
+                     "--seed", "4"]) == 0
+    mixed = load_streams(out)
+    assert sum(len(s) for s in mixed) > sum(len(s) for s in streams)
+    assert cli.main(["gestures", "-o", str(tmp_path / "c.npz"), "--distractors"]) == 2
+    assert not (tmp_path / "c.npz").exists()

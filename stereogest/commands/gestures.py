@@ -14,7 +14,9 @@ person's gestures of a trajectory dataset (the `$1` logs, pendigits, a corpus
 written by this command) in a random order, ``--per-stream`` to a stream,
 joined by a pause (``--pause MIN-MAX`` steps, the hand still) and a
 minimum-jerk transit to the next gesture's start, with every gesture's span
-and label (:mod:`recognition.streams`).
+and label (:mod:`recognition.streams`); ``--distractors`` puts non-gesture
+motion (:mod:`sim.distractors`, scaled to the person's gestures) and another
+pause before every gesture.
 """
 from __future__ import annotations
 
@@ -52,6 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pause", default="0-15", metavar="MIN-MAX",
                         help="with --join: steps the hand rests between two gestures, "
                              "uniform in MIN..MAX (0..10000; 0 = it flows on)")
+    parser.add_argument("--distractors", action="store_true",
+                        help="with --join: non-gesture motion (out of view and back, a face "
+                             "scratch, a reach, a drift, a shapeless wave, a move in depth) "
+                             "before every gesture")
     add_json_switch(parser)
 
 
@@ -65,17 +71,19 @@ def _join(args, output) -> int:
     if data.subject is None:
         raise ValueError(f"--join: {args.join} has no subject (or writer) key: streams are "
                          f"per person")
-    streams = subject_streams(data, args.per_stream, args.seed, pause=pause)
+    streams = subject_streams(data, args.per_stream, args.seed, pause=pause,
+                              distractors=args.distractors)
     save_streams(streams, output)
     gestures = sum(len(s.spans) for s in streams)
     steps = sum(len(s) for s in streams)
     print(f"wrote {len(streams)} streams of {gestures} gestures ({steps} steps, pauses "
-          f"{pause[0]}-{pause[1]}, seed {args.seed}) from {args.join} -> {output}")
+          f"{pause[0]}-{pause[1]}{', distractors' if args.distractors else ''}, seed "
+          f"{args.seed}) from {args.join} -> {output}")
     if args.json:
         import json
         print(json.dumps({"output": str(output), "streams": len(streams),
                           "gestures": gestures, "steps": steps, "pause": list(pause),
-                          "seed": args.seed}))
+                          "distractors": args.distractors, "seed": args.seed}))
     return 0
 
 
@@ -90,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     output = check_output_file(args.output)
     if args.join is not None:
         return _join(args, output)
+    if args.distractors:
+        raise ValueError("--distractors goes with --join DATA.npz")
     # (a parameter named in the library's message is named as its option by
     # stereogest.cli.in_option_names)
     corpus = generate_corpus(args.per_class, args.people, args.seed, args.width,
