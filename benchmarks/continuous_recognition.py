@@ -13,9 +13,17 @@ seed 23: people not used to choose the board's defaults, which were chosen
 on seed 11), through the FPGA's centroid smoothing, with the board's
 defaults (``stereogest train --continuous``: 8 states, 20 px).
 
+``--distractors`` puts non-gesture motion (:mod:`sim.distractors`, scaled to
+each person's gestures) before every gesture, in the held-out streams and in
+the calibration's; ``--idle-steps N`` spots N steps of distractors alone per
+held-out subject (every command there is false). The spotting's ``max_gap``
+is learned per fold from the training subjects' gestures
+(:func:`recognition.continuous.symbol_gap`).
+
 Run: ``python benchmarks/continuous_recognition.py [--data dollar|corpus]
-[--subjects 2,3,4] [--states N] [--step PX] [--json FILE]``. Prints the
-figures; the $1 set takes tens of CPU minutes, the corpus a few.
+[--subjects 2,3,4] [--states N] [--step PX] [--distractors] [--idle-steps N]
+[--json FILE]``. Prints the figures; the $1 set takes tens of CPU minutes,
+the corpus a few.
 """
 from __future__ import annotations
 

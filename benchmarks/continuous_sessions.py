@@ -11,7 +11,10 @@ clip's truth (:func:`stereogest.pipeline_outputs.sequence_score`).
 every gesture; ``--idle-frames N`` also renders N frames of distractors only
 (clips of at most ``--idle-clip`` frames, scene seeds 900 onwards) and counts
 the commands named in them: the false commands per 10 minutes of motion that
-is no gesture. ``--scene hard`` renders every difficulty (and the pipeline
+is no gesture. ``--isolated N`` also runs the end-to-end figure's protocol
+(one gesture between rests per clip, :mod:`benchmarks.demo_accuracy`'s seeds
+2001 onwards, N per gesture) through the continuous spotting: a clip counts
+when its gesture is named once and nothing else is. ``--scene hard`` renders every difficulty (and the pipeline
 then tracks the hand, ``--hand-tracking``).
 
 Run: ``python benchmarks/continuous_sessions.py [--sessions 10] [--per-session 8]
@@ -37,6 +40,33 @@ ROOT = Path(__file__).resolve().parents[1]
 FIRST_SEED = 500
 #: Scene seeds of the distractor-only clips.
 FIRST_IDLE_SEED = 900
+
+
+ISOLATED_FIRST_SEED = 2001
+
+
+def isolated_clips(models, params, width: int, height: int, per_gesture: int, scene: str,
+                   cpu: dict) -> dict:
+    """Today's protocol (rest, one gesture, rest) through the continuous spotting."""
+    from sim.render import render_clip
+    right, rows = 0, []
+    for gesture in GESTURE_NAMES:
+        for k in range(per_gesture):
+            seed = ISOLATED_FIRST_SEED + k
+            t = time.process_time()
+            clip = render_clip(gesture, seed, width, height, difficulties=preset(scene, seed))
+            cpu["render"] += time.process_time() - t
+            t = time.process_time()
+            trajectory, _ = run_clip(clip.left, clip.right, params)
+            cpu["model"] += time.process_time() - t
+            t = time.process_time()
+            named = [r["name"] for r in stream_results(models, trajectory, width)]
+            cpu["spotting"] += time.process_time() - t
+            ok = named == [gesture]
+            right += ok
+            rows.append({"gesture": gesture, "seed": seed, "named": named, "right": ok})
+    print(f"isolated clips: {right} of {len(rows)} named once and right", flush=True)
+    return {"clips": len(rows), "right": right, "rows": rows}
 
 
 def idle_commands(models, params, width: int, height: int, frames: int, clip_frames: int,
@@ -87,15 +117,18 @@ def main(argv=None) -> int:
                     help="frames of distractors only (18000 = 10 minutes at 30 fps)")
     ap.add_argument("--idle-clip", type=int, default=900,
                     help="frames per distractor-only clip (memory)")
+    ap.add_argument("--isolated", type=int, default=0, metavar="N",
+                    help="also N clips per gesture of one gesture between rests")
     ap.add_argument("--scene", choices=("easy", "hard"), default="easy",
                     help="hard: every difficulty, with the pipeline's hand tracking")
     ap.add_argument("--model", default=None, help="default: sw_hps/models/continuous7.json")
     ap.add_argument("--json", default=str(ROOT / "build" / "continuous_sessions.json"))
     args = ap.parse_args(argv)
-    for option, value, lo, hi in (("--sessions", args.sessions, 1, 1000),
+    for option, value, lo, hi in (("--sessions", args.sessions, 0, 1000),
                                   ("--per-session", args.per_session, 1, 100),
                                   ("--idle-frames", args.idle_frames, 0, 1_000_000),
-                                  ("--idle-clip", args.idle_clip, 100, 100_000)):
+                                  ("--idle-clip", args.idle_clip, 100, 100_000),
+                                  ("--isolated", args.isolated, 0, 100)):
         if not lo <= value <= hi:
             ap.error(f"{option} must be in {lo}..{hi}, got {value}")
     models = load_board_models(args.model, "continuous")
@@ -132,11 +165,15 @@ def main(argv=None) -> int:
               f"{score['true']} right, {score['false']} false", flush=True)
     precision = totals["correct"] / totals["named"] if totals["named"] else 0.0
     recall = totals["correct"] / totals["true"] if totals["true"] else 0.0
-    f1 = 2 * totals["correct"] / (totals["true"] + totals["named"])
+    f1 = 2 * totals["correct"] / (totals["true"] + totals["named"]) \
+        if totals["true"] + totals["named"] else 0.0
     minutes = between / 30 / 60
     idle = idle_commands(models, params, args.width, args.height, args.idle_frames,
                          args.idle_clip, args.scene, cpu) if args.idle_frames else None
+    isolated = isolated_clips(models, params, args.width, args.height, args.isolated,
+                              args.scene, cpu) if args.isolated else None
     report = {"sessions": sessions, "width": args.width, "height": args.height,
+              "isolated": isolated,
               "distractors": args.distractors, "scene": args.scene, "idle": idle,
               **totals, "precision": precision, "recall": recall, "f1": f1,
               "frames": frames, "between_gesture_frames": between,
@@ -144,20 +181,25 @@ def main(argv=None) -> int:
               "latency_median_frames": float(np.median(latencies)) if latencies else None,
               "latency_p95_frames": float(np.percentile(latencies, 95)) if latencies else None,
               "cpu_s": {key: round(v, 1) for key, v in cpu.items()},
-              "spotting_us_per_frame": round(1e6 * cpu["spotting"] / frames, 1)}
+              "spotting_us_per_frame": round(1e6 * cpu["spotting"] / frames, 1)
+              if frames else None}
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(report, indent=1) + "\n")
     print(f"{args.sessions} rendered sessions of {args.per_session} gestures at "
           f"{args.width}x{args.height}, pauses 0-15 frames"
           f"{', distractors' if args.distractors else ''}, {args.scene} scene, "
           f"{frames} frames:")
-    print(f"  F1 {100 * f1:.2f} %  precision {100 * precision:.2f} %  recall "
-          f"{100 * recall:.2f} %")
-    print(f"  false commands {totals['false']} ({report['false_commands_per_10_min']:.1f} per "
-          f"10 minutes of the {between} frames outside the gestures' motion at 30 fps)")
-    print(f"  latency from a gesture's end to its name: median "
-          f"{report['latency_median_frames']} frames, 95th percentile "
-          f"{report['latency_p95_frames']}")
+    if args.sessions:
+        print(f"  F1 {100 * f1:.2f} %  precision {100 * precision:.2f} %  recall "
+              f"{100 * recall:.2f} %")
+        print(f"  false commands {totals['false']} ({report['false_commands_per_10_min']:.1f} "
+              f"per 10 minutes of the {between} frames outside the gestures' motion at 30 fps)")
+        print(f"  latency from a gesture's end to its name: median "
+              f"{report['latency_median_frames']} frames, 95th percentile "
+              f"{report['latency_p95_frames']}")
+    if isolated is not None:
+        print(f"  isolated gestures between rests: {isolated['right']} of "
+              f"{isolated['clips']} named once and right")
     if idle is not None:
         print(f"  distractors only: {idle['false_commands']} commands in {idle['frames']} "
               f"frames ({idle['minutes']} minutes at 30 fps): "
