@@ -135,7 +135,8 @@ def main(argv=None) -> int:
         i = report["idle"]
         print(f"  distractors only: {i['false_commands']} commands in {i['frames']} frames "
               f"({i['minutes']} minutes at 30 fps): {i['false_commands_per_10_min']:.2f} per "
-              f"10 minutes")
+              f"10 minutes; each kind alone, {i['frames'] // 6} frames each: "
+              f"{i['kind_alone']}")
     for subject, s in report["per_subject"].items():
         print(f"  subject {subject}: F1 {100 * s['f1']:.2f} %, bias {s['threshold_bias']}")
     c = report["cost"]

@@ -22,6 +22,7 @@ import numpy as np
 from recognition.datasets import TrajectorySet
 from recognition.hmm_train import train_models
 from recognition.streams import GestureStream, distractor_stream, gesture_extent, subject_streams
+from sim.distractors import DISTRACTOR_KINDS
 from sw_hps.continuous import SPOTTING_DEFAULTS, ContinuousRecogniser, Detection
 from sw_hps.orientation import DistanceSymbols
 
@@ -195,15 +196,16 @@ def _between_frames(stream: GestureStream) -> int:
 
 
 def idle_stream(data: TrajectorySet, steps: int, seed: int, *, pause=(0, 15),
-                subject: int = 0) -> GestureStream:
+                subject: int = 0, kind: str | None = None) -> GestureStream:
     """``steps`` steps of distractors alone (:func:`recognition.streams.
-    distractor_stream`) from the median start of ``data``'s gestures, in units
-    of their median extent."""
+    distractor_stream`; of one ``kind``, or of every kind) from the median
+    start of ``data``'s gestures, in units of their median extent."""
     parts = data.trajectories()
     start = np.median([np.asarray(p, dtype=np.float64)[0] for p in parts], axis=0)
+    kinds = DISTRACTOR_KINDS if kind is None else (kind,)
     return distractor_stream(start, gesture_extent(parts), steps,
-                             np.random.default_rng([seed, subject]), pause=pause,
-                             subject=subject)
+                             np.random.default_rng([seed, subject, len(kinds)]), pause=pause,
+                             subject=subject, kinds=kinds)
 
 
 def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 6,
@@ -214,8 +216,10 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     """Continuous recognition of every subject of ``data`` by models trained on
     the others (module docstring); JSON-ready figures, overall and per subject.
     ``distractors``: a distractor before every gesture (in the calibration's
-    streams too); ``idle_steps``: per held-out subject, a stream of that many
-    steps of distractors alone, its commands counted as ``idle`` (all false)."""
+    streams too); ``idle_steps``: per held-out subject, that many steps of
+    distractors alone (every kind, in rounds of a random order), its commands
+    counted as ``idle`` (all false); ``kind_alone`` counts the commands in a
+    sixth as many steps of each kind alone (back to back: a diagnosis)."""
     if data.subject is None:
         raise ValueError("the dataset has no subject (or writer) key")
     names = data.class_names
@@ -227,6 +231,7 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     totals = np.zeros(5, np.int64)           # true, detections, correct, between, false
     all_latencies = []
     idle_false = 0
+    idle_by_kind = dict.fromkeys(DISTRACTOR_KINDS, 0)
     for subject in np.unique(data.subject):
         train = np.flatnonzero(data.subject != subject)
         fold = dict(options)
@@ -254,6 +259,10 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             named = len(spot_stream(recogniser, idle.points, step, front_end))
             per_subject[int(subject)]["idle_false_commands"] = named
             idle_false += named
+            for kind in DISTRACTOR_KINDS:     # the diagnosis: each kind alone
+                idle = idle_stream(held, idle_steps // len(DISTRACTOR_KINDS), seed, pause=pause,
+                                   subject=int(subject), kind=kind)
+                idle_by_kind[kind] += len(spot_stream(recogniser, idle.points, step, front_end))
         totals += (true, det, correct, between, false)
         all_latencies += latencies
     true, det, correct, between, false = (int(v) for v in totals)
@@ -263,8 +272,8 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             "emission_floor": emission_floor, "per_stream": per_stream,
             "pause": list(pause), "seed": seed, "spotting": options,
             "distractors": distractors, "overall": overall,
-            "idle": _idle_summary(idle_false, idle_steps * len(per_subject), fps)
-            if idle_steps else None,
+            "idle": dict(_idle_summary(idle_false, idle_steps * len(per_subject), fps),
+                         kind_alone=idle_by_kind) if idle_steps else None,
             "per_subject": per_subject}
 
 

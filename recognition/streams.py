@@ -132,13 +132,13 @@ class _Distractors:
     """Distractor paths for one stream: the kinds in rounds of a random order
     (each as often as the others), scaled by ``unit``."""
 
-    def __init__(self, rng: np.random.Generator, unit: float):
-        self.rng, self.unit, self.kinds = rng, unit, []
+    def __init__(self, rng: np.random.Generator, unit: float, kinds=DISTRACTOR_KINDS):
+        self.rng, self.unit, self.choice, self.kinds = rng, unit, tuple(kinds), []
 
     def path(self, start: np.ndarray) -> np.ndarray:
         if not self.kinds:
-            self.kinds.extend(self.rng.permutation(len(DISTRACTOR_KINDS)).tolist())
-        kind = DISTRACTOR_KINDS[self.kinds.pop(0)]
+            self.kinds.extend(self.rng.permutation(len(self.choice)).tolist())
+        kind = self.choice[self.kinds.pop(0)]
         return start + self.unit * distractor_motion(kind, self.rng).offset[1:]
 
 
@@ -204,19 +204,25 @@ def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
 
 
 def distractor_stream(start, unit: float, steps: int, rng: np.random.Generator, *,
-                      pause=(0, 15), subject: int = 0) -> GestureStream:
+                      pause=(0, 15), subject: int = 0,
+                      kinds=DISTRACTOR_KINDS) -> GestureStream:
     """A stream of ``steps`` steps of distractors alone from ``start`` (x, y),
     one after another with a pause of ``pause`` steps after each, drawn in
     units of ``unit`` (a gesture's extent, :func:`gesture_extent`): no
-    gesture, so anything named in it is a false command."""
+    gesture, so anything named in it is a false command. ``kinds``: the
+    distractor kinds it draws from (each as often as the others)."""
     pause = check_range("pause", pause, *PAUSE_RANGE)
+    kinds = tuple(kinds)
+    if not kinds or any(k not in DISTRACTOR_KINDS for k in kinds):
+        raise ValueError(f"kinds must name one or more of {', '.join(DISTRACTOR_KINDS)}, "
+                         f"got {kinds!r}")
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) \
             or not 1 <= steps <= 10_000_000:
         raise ValueError(f"steps must be an integer in [1, 10000000], got {steps!r}")
     if not (np.isfinite(unit) and unit > 0):
         raise ValueError(f"unit must be a positive number, got {unit!r}")
     start = np.asarray(start, dtype=np.float64).reshape(1, 2)
-    others = _Distractors(rng, float(unit))
+    others = _Distractors(rng, float(unit), kinds)
     pieces, at = [start], 1
     while at < steps:
         for piece in (others.path(start[0]),

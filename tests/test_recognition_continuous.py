@@ -68,6 +68,10 @@ def test_distractors_alone_and_the_gap_limit():
     from recognition.streams import distractor_stream
     stream = distractor_stream((200, 200), 60.0, 3000, np.random.default_rng(3))
     assert len(stream) == 3000 and len(stream.spans) == 0
+    drift = distractor_stream((200, 200), 60.0, 3000, np.random.default_rng(3), kinds=["drift"])
+    assert np.abs(drift.points - 200).max() <= 0.45 * 60 + 1e-9      # drifts are small
+    with pytest.raises(ValueError, match="kinds must name one or more of out-of-view"):
+        distractor_stream((0, 0), 1.0, 10, np.random.default_rng(0), kinds=["jump"])
     # up-right with a hold of 30 frames between its halves: named without the
     # limit, not with it
     half = [(2, 0)] * 6 + [(0, -2)] * 6
