@@ -71,8 +71,16 @@ class Running:
             self._queue.put(line.rstrip("\n"))
         self._queue.put(None)
 
-    def wait_for(self, text, timeout=PATIENCE):
-        """The next line containing ``text`` (earlier lines are kept in ``lines``)."""
+    def wait_for(self, text, timeout=PATIENCE, nth=None):
+        """The next line containing ``text`` (earlier lines are kept in ``lines``);
+        with ``nth``, the nth such line since the start, which may have been read
+        already: the parent's and the child's lines reach the pipe in either order."""
+        if nth is not None:
+            seen = [line for line in self.lines if text in line]
+            if len(seen) >= nth:
+                return seen[nth - 1]
+            for _ in range(nth - len(seen) - 1):
+                self.wait_for(text, timeout)
         end = time.monotonic() + timeout
         while True:
             try:
@@ -146,15 +154,15 @@ def test_sigbus_on_the_bridge_is_one_line_and_status_1(model_file, device):
 
 def test_a_fault_retry_starts_the_application_again(model_file, device):
     app = start_app(model_file, device, "--fault-retries", "1")
-    first = app.wait_for("application started (process")
-    app.wait_for("running: bus uio")
+    first = app.wait_for("application started (process", nth=1)
+    app.wait_for("running: bus uio", nth=1)
     os.truncate(str(device), 0)
     fault = app.wait_for("died of SIGBUS")
     device.write_bytes(core_image())              # the bridge is back before the retry
     assert "starting it again in 1 s (fault retry 1 of 1)" in fault
-    second = app.wait_for("application started (process")
+    second = app.wait_for("application started (process", nth=2)
     assert second != first
-    app.wait_for("running: bus uio")
+    app.wait_for("running: bus uio", nth=2)
     app.process.send_signal(signal.SIGTERM)
     status, lines = app.finish()
     assert status == 0, lines
@@ -164,8 +172,9 @@ def test_a_fault_retry_starts_the_application_again(model_file, device):
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signals_reach_the_application(model_file, device, signum):
     app = start_app(model_file, device)
-    pid = int(app.wait_for("application started (process").split("process ")[1].rstrip(")"))
-    app.wait_for("running: bus uio")
+    pid = int(app.wait_for("application started (process", nth=1).split("process ")[1]
+              .rstrip(")"))
+    app.wait_for("running: bus uio", nth=1)
     app.process.send_signal(signum)
     app.wait_for("signal %d: stopping" % signum)  # the child's own handler got it
     status, lines = app.finish()
@@ -177,12 +186,14 @@ def test_stop_signals_reach_the_application(model_file, device, signum):
 
 def test_sighup_reloads_a_good_model_file_and_keeps_running_on_a_bad_one(model_file, device):
     app = start_app(model_file, device)
-    first = int(app.wait_for("application started (process").split("process ")[1].rstrip(")"))
-    app.wait_for("running: bus uio")
+    first = int(app.wait_for("application started (process", nth=1).split("process ")[1]
+                .rstrip(")"))
+    app.wait_for("running: bus uio", nth=1)
     app.process.send_signal(signal.SIGHUP)
-    app.wait_for("SIGHUP: model file checked; restarting the application")
-    second = int(app.wait_for("application started (process").split("process ")[1].rstrip(")"))
-    app.wait_for("running: bus uio")
+    app.wait_for("SIGHUP: model file checked; restarting the application", nth=1)
+    second = int(app.wait_for("application started (process", nth=2).split("process ")[1]
+                 .rstrip(")"))
+    app.wait_for("running: bus uio", nth=2)
     assert second != first
     model_file.write_text("{}")                   # broken: refused, the child goes on
     app.process.send_signal(signal.SIGHUP)
