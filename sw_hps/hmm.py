@@ -46,7 +46,8 @@ import numpy as np
 from .continuous import check_spotting
 # The file's identity lives in a standard-library module: the bundle checks it
 # on a machine without numpy.
-from .model_format import EMISSIONS, MODEL_FORMAT, MODEL_VERSION, MODEL_VERSIONS
+from .model_format import (EMISSIONS, MODEL_FORMAT, MODEL_VERSION, MODEL_VERSIONS, check_header,
+                           read_json)
 
 __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM",
            "GestureModels", "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
@@ -273,16 +274,7 @@ class GestureModels:
     def from_dict(cls, data) -> "GestureModels":
         """A discrete or a Gaussian model set (:class:`sw_hps.gaussian_hmm.
         GaussianGestureModels`), as the file's ``emission`` says."""
-        if not isinstance(data, dict):
-            raise ValueError("model file must hold a JSON object")
-        if data.get("format") != MODEL_FORMAT:
-            raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
-        version = data.get("version")
-        if version not in MODEL_VERSIONS or isinstance(version, bool):
-            raise ValueError(f"version must be one of {list(MODEL_VERSIONS)}, got {version!r}")
-        emission = data.get("emission", "discrete") if version >= 2 else "discrete"
-        if emission not in EMISSIONS:
-            raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+        version, emission = check_header(data)
         spotting = data.get("spotting") if version >= 3 else None
         if emission == "gaussian":
             if spotting is not None:
@@ -357,15 +349,7 @@ def best_class(scores) -> int:
 
 def load_models(path) -> GestureModels:
     """Read and validate a model file; ``ValueError`` names what is wrong."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read model file ({exc.strerror})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    data = read_json(path)
     try:
         return GestureModels.from_dict(data)
     except ValueError as exc:

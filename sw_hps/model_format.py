@@ -11,8 +11,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "check_structure",
-           "read_structure"]
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "check_header",
+           "check_structure", "read_json", "read_structure"]
 
 MODEL_FORMAT = "stereogest-hmm"
 #: Version written; 1 (discrete, no rejection) and 2 (no spotting) are still read.
@@ -21,6 +21,24 @@ MODEL_VERSION = 3
 MODEL_VERSIONS = (1, 2, 3)
 #: Emission models a model file may hold.
 EMISSIONS = ("discrete", "gaussian")
+
+
+def check_header(data) -> tuple[int, str]:
+    """``(version, emission)`` of a model file's parsed JSON once its object,
+    ``format``, ``version`` and ``emission`` are right; ``ValueError`` names the
+    first that is not (the one check of these fields, :func:`check_structure`
+    and :meth:`sw_hps.hmm.GestureModels.from_dict` call it)."""
+    if not isinstance(data, dict):
+        raise ValueError("model file must hold a JSON object")
+    if data.get("format") != MODEL_FORMAT:
+        raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
+    version = data.get("version")
+    if version not in MODEL_VERSIONS or isinstance(version, bool):
+        raise ValueError(f"version must be one of {list(MODEL_VERSIONS)}, got {version!r}")
+    emission = data.get("emission", "discrete") if version >= 2 else "discrete"
+    if emission not in EMISSIONS:
+        raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+    return version, emission
 
 
 def check_structure(data) -> dict:
@@ -43,16 +61,7 @@ def check_structure(data) -> dict:
         Naming the first field that is wrong. The messages match
         :meth:`sw_hps.hmm.GestureModels.from_dict` where both check the same field.
     """
-    if not isinstance(data, dict):
-        raise ValueError("model file must hold a JSON object")
-    if data.get("format") != MODEL_FORMAT:
-        raise ValueError(f"format must be {MODEL_FORMAT!r}, got {data.get('format')!r}")
-    version = data.get("version")
-    if version not in MODEL_VERSIONS or isinstance(version, bool):
-        raise ValueError(f"version must be one of {list(MODEL_VERSIONS)}, got {version!r}")
-    emission = data.get("emission", "discrete") if version >= 2 else "discrete"
-    if emission not in EMISSIONS:
-        raise ValueError(f"emission must be one of {list(EMISSIONS)}, got {emission!r}")
+    version, emission = check_header(data)
     names = data.get("class_names")
     entries = data.get("models")
     if not isinstance(names, list) or not isinstance(entries, list):
@@ -67,18 +76,25 @@ def check_structure(data) -> dict:
     return {"version": version, "emission": emission, "class_names": list(names)}
 
 
-def read_structure(path) -> dict:
-    """:func:`check_structure` of a model file; ``ValueError`` names the file
-    and what is wrong (unreadable, not JSON, a field)."""
-    path = Path(path)
+def read_json(path):
+    """The parsed JSON of a model file; ``ValueError`` names the file and why it
+    cannot be read or parsed."""
     try:
-        raw = path.read_bytes()
+        raw = Path(path).read_bytes()
     except OSError as exc:
         raise ValueError(f"{path}: cannot read model file ({exc.strerror})") from None
     try:
-        data = json.loads(raw)
-    except ValueError as exc:  # json.JSONDecodeError or UnicodeDecodeError
+        return json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except ValueError as exc:  # bytes that are no UTF-8/16/32 text
         raise ValueError(f"{path}: not valid JSON ({exc})") from None
+
+
+def read_structure(path) -> dict:
+    """:func:`check_structure` of a model file; ``ValueError`` names the file
+    and what is wrong (unreadable, not JSON, a field)."""
+    data = read_json(path)
     try:
         return check_structure(data)
     except ValueError as exc:
