@@ -562,29 +562,26 @@ class GestureApp:
         if left_out is not None:
             log.error("%s%s", line, f" ({left_out} more like it not logged)" if left_out else "")
         log.debug("traceback of the error", exc_info=True)
+        self._abandon(f"{type(exc).__name__}: {exc}")
+        self._pause(delay)
+
+    def _abandon(self, reason: str) -> None:
+        """After an error or a bus fault: keep a gesture decided before it, drop
+        one under way (``reason``), and start again at S0."""
         if self._pending is not None:
             self._finish(self._pending)  # decided before the fault: keep it
         elif self.state in (State.READ, State.CLASSIFY):
             self._finish(GestureResult("dropped", num_points=self.classifier.num_points,
                                        num_symbols=self.classifier.num_symbols,
-                                       reason=f"{type(exc).__name__}: {exc}"))
+                                       reason=reason))
         self._pending = None
         self.classifier.reset()
         self.state = State.INIT
-        self._pause(delay)
 
     def _bus_fault(self, fault: BusFault) -> None:
         """A step read what no working core gives: drop the gesture, back off, and
         probe the registers until they look sane (module docstring, Faults)."""
-        if self._pending is not None:
-            self._finish(self._pending)  # decided before the fault: keep it
-        elif self.state in (State.READ, State.CLASSIFY):
-            self._finish(GestureResult("dropped", num_points=self.classifier.num_points,
-                                       num_symbols=self.classifier.num_symbols,
-                                       reason=f"bus fault: {fault}"))
-        self._pending = None
-        self.classifier.reset()
-        self.state = State.INIT
+        self._abandon(f"bus fault: {fault}")
         self._pause(self.bus_watch.fault(str(fault)))
 
     def shutdown(self) -> None:
