@@ -277,6 +277,24 @@ def _check_metadata(meta, where: str) -> dict:
     return meta
 
 
+def _rising_spans(entries, name_key: str, names, span_key: str, lo: int, hi: int):
+    """The ``[first, last]`` of each entry of a truth list (objects of exactly
+    ``name_key`` in ``names`` and ``span_key``), rising, disjoint and inside
+    [lo, hi]; None if any entry is not so."""
+    spans, previous = [], lo - 1
+    for entry in entries:
+        if not isinstance(entry, dict) or set(entry) != {name_key, span_key} \
+                or entry[name_key] not in names:
+            return None
+        span = entry[span_key]
+        if (not isinstance(span, list) or len(span) != 2 or not all(_is_int(v) for v in span)
+                or not previous < span[0] <= span[1] <= hi):
+            return None
+        spans.append(span)
+        previous = span[1]
+    return spans
+
+
 def _check_distractors(meta, bad) -> None:
     expected = ("a list of {\"kind\": KIND, \"frames\": [first, last]} in order, inside the "
                 f"clip, none overlapping a gesture; KIND one of {', '.join(DISTRACTOR_KINDS)}")
@@ -284,19 +302,11 @@ def _check_distractors(meta, bad) -> None:
     if "sequence" not in meta or not isinstance(entries, list):
         raise bad("distractors", expected)
     gestures = [e["motion_frames"] for e in meta["sequence"]]
-    previous = -1
-    for entry in entries:
-        if not isinstance(entry, dict) or set(entry) != {"kind", "frames"} \
-                or entry["kind"] not in DISTRACTOR_KINDS:
-            raise bad("distractors", expected)
-        span = entry["frames"]
-        if (not isinstance(span, list) or len(span) != 2 or not all(_is_int(v) for v in span)
-                or not previous < span[0] <= span[1] < meta["frames"]
-                or any(span[0] <= b and a <= span[1] for a, b in gestures)):
-            raise bad("distractors", expected)
-        previous = span[1]
-    if not meta["sequence"] and (not entries or [entries[0]["frames"][0],
-                                                  entries[-1]["frames"][1]]
+    spans = _rising_spans(entries, "kind", DISTRACTOR_KINDS, "frames", 0, meta["frames"] - 1)
+    if spans is None or any(first <= b and a <= last for first, last in spans
+                            for a, b in gestures):
+        raise bad("distractors", expected)
+    if not meta["sequence"] and (not spans or [spans[0][0], spans[-1][1]]
                                  != list(meta["motion_frames"])):
         raise bad("distractors", expected + " (without gestures: spanning motion_frames)")
 
@@ -310,18 +320,9 @@ def _check_sequence(meta, bad) -> None:
     if "motion_frames" not in meta or not isinstance(seq, list) or not seq:
         raise bad("sequence", expected)
     lo, hi = meta["motion_frames"]
-    previous = lo - 1
-    for entry in seq:
-        if not isinstance(entry, dict) or set(entry) != {"gesture", "motion_frames"} \
-                or entry["gesture"] not in GESTURE_NAMES:
-            raise bad("sequence", expected)
-        span = entry["motion_frames"]
-        if (not isinstance(span, list) or len(span) != 2 or not all(_is_int(v) for v in span)
-                or not previous < span[0] <= span[1] <= hi):
-            raise bad("sequence", expected)
-        previous = span[1]
-    if seq[-1]["gesture"] != meta["gesture"] or seq[0]["motion_frames"][0] != lo \
-            or seq[-1]["motion_frames"][1] != hi:
+    spans = _rising_spans(seq, "gesture", GESTURE_NAMES, "motion_frames", lo, hi)
+    if spans is None or seq[-1]["gesture"] != meta["gesture"] or spans[0][0] != lo \
+            or spans[-1][1] != hi:
         raise bad("sequence", expected)
 
 
