@@ -268,6 +268,17 @@ def run_install(tarball, cwd, *args, env=None):
         script.unlink()
 
 
+def installed_tree(tmp_path):
+    """A bundle of a tiny model installed by its install.sh into tmp_path/home:
+    the tree it made (home/stereogest)."""
+    model = tiny_models(tmp_path / "m.json")
+    build_bundle(model, tmp_path / "b.tar.gz")
+    home = tmp_path / "home"
+    home.mkdir()
+    assert run_install(tmp_path / "b.tar.gz", home, tmp_path / "b.tar.gz").returncode == 0
+    return home / "stereogest"
+
+
 def pycaches(tree):
     return sorted(str(p.relative_to(tree)) for p in Path(str(tree)).rglob("__pycache__"))
 
@@ -492,12 +503,7 @@ def install_service(tree, destdir, init, python):
 @needs_sh
 @pytest.mark.parametrize("init", ["systemd", "sysv"])
 def test_install_service_fills_in_the_paths(tmp_path, init):
-    model = tiny_models(tmp_path / "m.json")
-    build_bundle(model, tmp_path / "b.tar.gz")
-    home = tmp_path / "home"
-    home.mkdir()
-    assert run_install(tmp_path / "b.tar.gz", home, tmp_path / "b.tar.gz").returncode == 0
-    tree = home / "stereogest"
+    tree = installed_tree(tmp_path)
     dest = tmp_path / "root"
     run = install_service(tree, dest, init, sys.executable)
     assert run.returncode == 0, run.stderr
@@ -592,14 +598,10 @@ def _wait_for(predicate, seconds=10.0):
 @needs_sh
 def test_init_script_starts_reloads_and_stops(tmp_path):
     from sw_hps.bundle import service_settings
-    model = tiny_models(tmp_path / "m.json")
-    build_bundle(model, tmp_path / "b.tar.gz")
-    home = tmp_path / "home"
-    home.mkdir()
-    assert run_install(tmp_path / "b.tar.gz", home, tmp_path / "b.tar.gz").returncode == 0
+    tree = installed_tree(tmp_path)
     dest = tmp_path / "root"
     python = fake_python(tmp_path)
-    assert install_service(home / "stereogest", dest, "sysv", python).returncode == 0
+    assert install_service(tree, dest, "sysv", python).returncode == 0
     pidfile, logfile = tmp_path / "stereogest.pid", tmp_path / "stereogest.log"
     env = clean_env(STEREOGEST_DEFAULTS=str(dest / "etc/default/stereogest"),
                     STEREOGEST_PIDFILE=str(pidfile), STEREOGEST_LOG=str(logfile),

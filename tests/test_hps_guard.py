@@ -23,8 +23,7 @@ from soc.hps_interface import CONTROL, CORE_MAGIC, ID, VERSION, version_word
 from sw_hps.__main__ import WINDOW_SPAN, main, parse_args
 from sw_hps.busfault import CHECK_HINT, LIKELY_CAUSE
 from sw_hps.guard import MAX_FAULT_RETRIES, supervise
-from sw_hps.hmm import save_models
-from tests.test_hps_app import MODELS
+from tests.test_hps_app import model_file  # noqa: F401  (a fixture)
 
 REPO = Path(__file__).resolve().parents[1]
 #: Seconds any one expected event may take (the machine may be busy).
@@ -109,13 +108,6 @@ class Running:
             self.lines.append(line)
         self.process.stdout.close()
         return self.process.returncode, self.lines
-
-
-@pytest.fixture
-def model_file(tmp_path):
-    path = tmp_path / "models.json"
-    save_models(MODELS, path)
-    return path
 
 
 @pytest.fixture

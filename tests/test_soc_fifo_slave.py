@@ -52,6 +52,25 @@ def test_small_depth_cocotb():
                testcase=["register_map", "same_cycle", "random_against_model"])
 
 
+async def bus_read(ctx, bus, offset):
+    """One Avalon read under Amaranth's simulator (readdata is valid the cycle
+    after the read)."""
+    ctx.set(bus.address, offset // 4)
+    ctx.set(bus.read, 1)
+    await ctx.tick()
+    ctx.set(bus.read, 0)
+    return ctx.get(bus.readdata)
+
+
+async def bus_write(ctx, bus, offset, value):
+    """One Avalon write under Amaranth's simulator."""
+    ctx.set(bus.address, offset // 4)
+    ctx.set(bus.writedata, value)
+    ctx.set(bus.write, 1)
+    await ctx.tick()
+    ctx.set(bus.write, 0)
+
+
 def test_full_depth_amaranth_sim():
     """The board's depth (512) under Amaranth's simulator (no second Verilator
     build): Longitud reaches 512, pair 513 is dropped and sets FIFO-FULL, the
@@ -63,17 +82,9 @@ def test_full_depth_amaranth_sim():
 
     async def testbench(ctx):
         async def read(offset):
-            ctx.set(bus.address, offset // 4)
-            ctx.set(bus.read, 1)
-            await ctx.tick()
-            ctx.set(bus.read, 0)
-            return ctx.get(bus.readdata)  # valid the cycle after the read
+            return await bus_read(ctx, bus, offset)
 
-        ctx.set(bus.address, CONTROL // 4)
-        ctx.set(bus.writedata, CTRL_GO)
-        ctx.set(bus.write, 1)
-        await ctx.tick()
-        ctx.set(bus.write, 0)
+        await bus_write(ctx, bus, CONTROL, CTRL_GO)
         for n, (x, y) in enumerate(values):
             ctx.set(beat.payload.x, x)
             ctx.set(beat.payload.y, y)
@@ -106,26 +117,12 @@ def read_after_writes(dut, offsets):
     seen = {}
 
     async def testbench(ctx):
-        async def read(offset):
-            ctx.set(bus.address, offset // 4)
-            ctx.set(bus.read, 1)
-            await ctx.tick()
-            ctx.set(bus.read, 0)
-            return ctx.get(bus.readdata)
-
-        async def write(offset, value):
-            ctx.set(bus.address, offset // 4)
-            ctx.set(bus.writedata, value)
-            ctx.set(bus.write, 1)
-            await ctx.tick()
-            ctx.set(bus.write, 0)
-
-        seen["before"] = [await read(offset) for offset in offsets]
+        seen["before"] = [await bus_read(ctx, bus, offset) for offset in offsets]
         for offset in offsets:
-            await write(offset, 0xFFFFFFFF)
+            await bus_write(ctx, bus, offset, 0xFFFFFFFF)
             if offset == CONTROL:
-                await write(CONTROL, 0)
-        seen["after"] = [await read(offset) for offset in offsets]
+                await bus_write(ctx, bus, CONTROL, 0)
+        seen["after"] = [await bus_read(ctx, bus, offset) for offset in offsets]
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
