@@ -45,6 +45,22 @@ FIRST_IDLE_SEED = 900
 ISOLATED_FIRST_SEED = 2001
 
 
+def spot_rendered(render, models, params, width: int, cpu: dict):
+    """``render()``'s clip through the golden model of the whole pipeline and the
+    board's continuous spotting: ``(clip, results)``; the CPU seconds of each
+    part are added to ``cpu``."""
+    t = time.process_time()
+    clip = render()
+    cpu["render"] += time.process_time() - t
+    t = time.process_time()
+    trajectory, _ = run_clip(clip.left, clip.right, params)
+    cpu["model"] += time.process_time() - t
+    t = time.process_time()
+    results = stream_results(models, trajectory, width)
+    cpu["spotting"] += time.process_time() - t
+    return clip, results
+
+
 def isolated_clips(models, params, width: int, height: int, per_gesture: int, scene: str,
                    cpu: dict) -> dict:
     """Today's protocol (rest, one gesture, rest) through the continuous spotting."""
@@ -53,15 +69,11 @@ def isolated_clips(models, params, width: int, height: int, per_gesture: int, sc
     for gesture in GESTURE_NAMES:
         for k in range(per_gesture):
             seed = ISOLATED_FIRST_SEED + k
-            t = time.process_time()
-            clip = render_clip(gesture, seed, width, height, difficulties=preset(scene, seed))
-            cpu["render"] += time.process_time() - t
-            t = time.process_time()
-            trajectory, _ = run_clip(clip.left, clip.right, params)
-            cpu["model"] += time.process_time() - t
-            t = time.process_time()
-            named = [r["name"] for r in stream_results(models, trajectory, width)]
-            cpu["spotting"] += time.process_time() - t
+            _, results = spot_rendered(
+                lambda: render_clip(gesture, seed, width, height,
+                                    difficulties=preset(scene, seed)),
+                models, params, width, cpu)
+            named = [r["name"] for r in results]
             ok = named == [gesture]
             right += ok
             rows.append({"gesture": gesture, "seed": seed, "named": named, "right": ok})
@@ -78,16 +90,10 @@ def idle_commands(models, params, width: int, height: int, frames: int, clip_fra
     for k in range(-(-frames // clip_frames)):
         n = min(clip_frames, frames - done)
         seed = FIRST_IDLE_SEED + k
-        t = time.process_time()
-        clip = render_sequence([], seed, width, height, pause=(0, 15), distractors=True,
-                               frames=n, difficulties=preset(scene, seed))
-        cpu["render"] += time.process_time() - t
-        t = time.process_time()
-        trajectory, _ = run_clip(clip.left, clip.right, params)
-        cpu["model"] += time.process_time() - t
-        t = time.process_time()
-        results = stream_results(models, trajectory, width)
-        cpu["spotting"] += time.process_time() - t
+        clip, results = spot_rendered(
+            lambda: render_sequence([], seed, width, height, pause=(0, 15), distractors=True,
+                                    frames=n, difficulties=preset(scene, seed)),
+            models, params, width, cpu)
         named = [r for r in results if r["outcome"] == "recognised"]
         for r in named:     # which distractor (or pause) each false command overlapped
             hit = [kind for kind, a, b in clip.distractors if a <= r["last"] and r["first"] <= b]
@@ -141,17 +147,11 @@ def main(argv=None) -> int:
         seed = FIRST_SEED + k
         rng = np.random.default_rng(seed)
         names = [str(n) for n in rng.choice(GESTURE_NAMES, args.per_session)]
-        t = time.process_time()
-        clip = render_sequence(names, seed, args.width, args.height, pause=(0, 15),
-                               distractors=args.distractors,
-                               difficulties=preset(args.scene, seed))
-        cpu["render"] += time.process_time() - t
-        t = time.process_time()
-        trajectory, _ = run_clip(clip.left, clip.right, params)
-        cpu["model"] += time.process_time() - t
-        t = time.process_time()
-        results = stream_results(models, trajectory, args.width)
-        cpu["spotting"] += time.process_time() - t
+        clip, results = spot_rendered(
+            lambda: render_sequence(names, seed, args.width, args.height, pause=(0, 15),
+                                    distractors=args.distractors,
+                                    difficulties=preset(args.scene, seed)),
+            models, params, args.width, cpu)
         score = sequence_score(results, clip.sequence)
         for key in totals:
             totals[key] += score[key]
