@@ -42,17 +42,21 @@ BIAS_GRID = (-2.0, -1.5, -1.25, -1.0, -0.75, -0.5, -0.25, 0.0)
 FRONT_ENDS = ("pen", "camera")
 
 
-def stream_pixels(points, front_end: str = "pen") -> np.ndarray:
+def stream_pixels(points, front_end: str = "pen", present=None) -> np.ndarray:
     """(T, 2) integer positions of a per-frame stream of pixel positions as
-    the symboliser gets them (:data:`FRONT_ENDS`)."""
+    the symboliser gets them (:data:`FRONT_ENDS`); ``present`` (T,) bool: the
+    frames with a hand in view (None: all), which the camera's smoothing
+    averages over."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if front_end == "pen":
         return np.rint(points).astype(np.int64)
     if front_end == "camera":
         from sim.model.pipeline import PipelineParams, track
         params = PipelineParams()
-        smoothed = track(np.floor(np.maximum(points, 0)).astype(np.int64),
-                         np.ones(len(points), np.int64), params).smoothed
+        areas = np.ones(len(points), np.int64) if present is None \
+            else np.asarray(present, dtype=np.int64)
+        smoothed = track(np.floor(np.maximum(points, 0)).astype(np.int64), areas,
+                         params).smoothed
         return smoothed >> params.frac_bits
     raise ValueError(f"front_end must be one of {', '.join(FRONT_ENDS)}, got {front_end!r}")
 
@@ -88,14 +92,21 @@ def symbol_gap(data: TrajectorySet, step: int, front_end: str = "pen",
 
 
 def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
-                front_end: str = "pen") -> list[Detection]:
+                front_end: str = "pen", present=None) -> list[Detection]:
     """The gestures ``recogniser`` names in one stream of positions (one per
-    frame, in pixels, made integers by ``front_end``, :data:`FRONT_ENDS`)."""
+    frame, in pixels, made integers by ``front_end``, :data:`FRONT_ENDS`).
+    A frame whose ``present`` is false (no hand in view) flushes, as the
+    board's :class:`sw_hps.streaming.StreamSpotter` does."""
     recogniser.reset()
     symbols = DistanceSymbols(step)
     named = []
-    points = stream_pixels(points, front_end)
-    for frame, point in enumerate(points):
+    present = np.ones(len(points), bool) if present is None else np.asarray(present, bool)
+    points = stream_pixels(points, front_end, present)
+    for frame, (point, seen) in enumerate(zip(points, present)):
+        if not seen:
+            symbols.reset()
+            named += recogniser.flush(frame)
+            continue
         named += recogniser.step(frame, symbols.push(point))
     named += recogniser.flush(len(points) - 1)
     return named
@@ -148,7 +159,7 @@ def _spot_counts(recogniser, streams, step,
     true = det = correct = between = false = 0
     latencies = []
     for stream in streams:
-        found = spot_stream(recogniser, stream.points, step, front_end)
+        found = spot_stream(recogniser, stream.points, step, front_end, stream.present)
         matched, lat = match_detections(found, stream.spans, stream.labels)
         true += len(stream.spans)
         det += len(found)
@@ -256,13 +267,14 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             calibration_f1=calibration)
         if idle_steps:
             idle = idle_stream(held, idle_steps, seed, pause=pause, subject=int(subject))
-            named = len(spot_stream(recogniser, idle.points, step, front_end))
+            named = len(spot_stream(recogniser, idle.points, step, front_end, idle.present))
             per_subject[int(subject)]["idle_false_commands"] = named
             idle_false += named
             for kind in DISTRACTOR_KINDS:     # the diagnosis: each kind alone
                 idle = idle_stream(held, idle_steps // len(DISTRACTOR_KINDS), seed, pause=pause,
                                    subject=int(subject), kind=kind)
-                idle_by_kind[kind] += len(spot_stream(recogniser, idle.points, step, front_end))
+                idle_by_kind[kind] += len(spot_stream(recogniser, idle.points, step, front_end,
+                                                      idle.present))
         totals += (true, det, correct, between, false)
         all_latencies += latencies
     true, det, correct, between, false = (int(v) for v in totals)

@@ -12,9 +12,10 @@ where a gesture begins. With ``distractors``, non-gesture motion
 (:mod:`sim.distractors`: out of view and back, a face scratch, a reach, a
 drift, a shapeless wave, a move in depth) comes before every gesture, scaled
 to the stream's gestures (their median extent is one gesture amplitude; a
-trajectory has no depth and no "out of view", so those two are only their
-motion in the picture); :func:`distractor_stream` makes streams of
-distractors alone.
+trajectory has no depth, so a move in depth is only its motion in the
+picture, and while an ``out-of-view`` distractor has the hand below the
+picture the stream's ``present`` is false: a camera would see no hand);
+:func:`distractor_stream` makes streams of distractors alone.
 
 File layout (``.npz``, loadable with ``allow_pickle=False``)::
 
@@ -25,6 +26,8 @@ File layout (``.npz``, loadable with ``allow_pickle=False``)::
     span_first   (K,) int       its first step, inside the stream
     span_last    (K,) int       its last step (inclusive)
     span_label   (K,) str       its class name
+    present      (P,) bool      the hand in view at each position (optional:
+                                absent = always)
 
 Spans rise and never overlap within a stream.
 """
@@ -51,11 +54,13 @@ PAUSE_RANGE = (0, 10_000)
 class GestureStream:
     """One continuous stream: ``points`` (T, 2), the position at every step;
     ``spans`` (K, 2), the first and last step (inclusive) of each gesture,
-    rising and disjoint; ``labels`` (K,), their class names."""
+    rising and disjoint; ``labels`` (K,), their class names; ``present`` (T,)
+    bool, whether the hand is in view at each step (None: always)."""
     points: np.ndarray
     spans: np.ndarray
     labels: np.ndarray
     subject: int = 0
+    present: np.ndarray | None = None
 
     def __post_init__(self):
         points = np.asarray(self.points, dtype=np.float64)
@@ -69,6 +74,13 @@ class GestureStream:
             raise ValueError(f"labels must be {len(spans)} strings (one per span), got shape "
                              f"{labels.shape}")
         _check_spans(spans, len(points), "spans")
+        present = np.ones(len(points), bool) if self.present is None \
+            else np.asarray(self.present)
+        if present.shape != (len(points),) or present.dtype.kind not in "bui" \
+                or not np.isin(present, (0, 1)).all():
+            raise ValueError(f"present must be {len(points)} booleans (one per point), got "
+                             f"shape {present.shape}")
+        object.__setattr__(self, "present", present.astype(bool))
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "spans", spans.astype(np.int64))
         object.__setattr__(self, "labels", labels.astype(str))
@@ -135,11 +147,14 @@ class _Distractors:
     def __init__(self, rng: np.random.Generator, unit: float, kinds=DISTRACTOR_KINDS):
         self.rng, self.unit, self.choice, self.kinds = rng, unit, tuple(kinds), []
 
-    def path(self, start: np.ndarray) -> np.ndarray:
+    def path(self, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The next distractor from ``start`` (its first point dropped): its
+        positions and whether the hand is in view at each."""
         if not self.kinds:
             self.kinds.extend(self.rng.permutation(len(self.choice)).tolist())
         kind = self.choice[self.kinds.pop(0)]
-        return start + self.unit * distractor_motion(kind, self.rng).offset[1:]
+        motion = distractor_motion(kind, self.rng)
+        return start + self.unit * motion.offset[1:], motion.in_view[1:]
 
 
 def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
@@ -156,11 +171,12 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
     if not parts or len(parts) != len(labels):
         raise ValueError(f"parts and labels must be non-empty and as many, got {len(parts)} "
                          f"and {len(labels)}")
-    pieces, spans, at = [], [], 0
+    pieces, hidden, spans, at = [], [], [], 0
     others = _Distractors(rng, gesture_extent(parts)) if distractors else None
     for k, part in enumerate(parts):
         if others is not None:
-            before = others.path(part[0])
+            before, in_view = others.path(part[0])
+            hidden += (at + np.flatnonzero(~in_view)).tolist()
             hold = int(rng.integers(pause[0], pause[1] + 1))
             for piece in (before, np.repeat(part[:1], hold, axis=0)):
                 pieces.append(piece)
@@ -176,8 +192,10 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
             for piece in between:
                 pieces.append(piece)
                 at += len(piece)
+    present = np.ones(at, bool)
+    present[hidden] = False
     return GestureStream(np.concatenate(pieces), np.array(spans, np.int64),
-                         np.array(labels), subject)
+                         np.array(labels), subject, present)
 
 
 def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
@@ -223,14 +241,17 @@ def distractor_stream(start, unit: float, steps: int, rng: np.random.Generator, 
         raise ValueError(f"unit must be a positive number, got {unit!r}")
     start = np.asarray(start, dtype=np.float64).reshape(1, 2)
     others = _Distractors(rng, float(unit), kinds)
-    pieces, at = [start], 1
+    pieces, hidden, at = [start], [], 1
     while at < steps:
-        for piece in (others.path(start[0]),
-                      np.repeat(start, int(rng.integers(pause[0], pause[1] + 1)), axis=0)):
+        path, in_view = others.path(start[0])
+        hidden += (at + np.flatnonzero(~in_view)).tolist()
+        for piece in (path, np.repeat(start, int(rng.integers(pause[0], pause[1] + 1)), axis=0)):
             pieces.append(piece)
             at += len(piece)
+    present = np.ones(at, bool)
+    present[hidden] = False
     return GestureStream(np.concatenate(pieces)[:steps], np.zeros((0, 2), np.int64),
-                         np.zeros(0, str), subject)
+                         np.zeros(0, str), subject, present[:steps])
 
 
 def save_streams(streams, path) -> None:
@@ -248,6 +269,7 @@ def save_streams(streams, path) -> None:
         "span_stream": np.repeat(np.arange(len(streams)), [len(s.spans) for s in streams]),
         "span_first": spans[:, 0], "span_last": spans[:, 1],
         "span_label": joined([s.labels for s in streams], np.zeros(0, str)),
+        "present": joined([s.present for s in streams], np.zeros(0, bool)),
     }
     save_npz(path, arrays)
 
@@ -268,6 +290,7 @@ def load_streams(path) -> list[GestureStream]:
                 raise ValueError(f"missing key(s) {', '.join(missing)} (need "
                                  f"{', '.join(_KEYS)})")
             a = {k: data[k] for k in _KEYS}
+            a["present"] = data["present"] if "present" in data.files else None
     except (OSError, EOFError, zipfile.BadZipFile, AttributeError) as exc:
         raise ValueError(f"{path}: not a readable stream file ({exc})") from None
     except ValueError as exc:
@@ -292,8 +315,11 @@ def load_streams(path) -> list[GestureStream]:
             mine = a["span_stream"] == s
             spans = np.stack([a["span_first"][mine], a["span_last"][mine]], axis=1)
             try:
+                present = None if a["present"] is None \
+                    else a["present"][offsets[s]:offsets[s + 1]]
                 streams.append(GestureStream(a["points"][offsets[s]:offsets[s + 1]], spans,
-                                             a["span_label"][mine], int(a["subject"][s])))
+                                             a["span_label"][mine], int(a["subject"][s]),
+                                             present))
             except ValueError as exc:
                 raise ValueError(f"stream {s}: {exc}".replace("spans", "span_first/span_last")
                                  ) from None

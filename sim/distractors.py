@@ -58,10 +58,15 @@ class DistractorMotion(NamedTuple):
         first and last rows are 0.
     disparity : (T,) float64
         Change of the hand's disparity in pixels (0 but for ``depth``).
+    in_view : (T,) bool
+        False while the hand is below the picture (``out-of-view``: at or
+        beyond ``exit_below``): a trajectory stream has no picture edge, so
+        this says where a camera would see no hand.
     """
     kind: str
     offset: np.ndarray
     disparity: np.ndarray
+    in_view: np.ndarray
 
     @property
     def frames(self) -> int:
@@ -162,7 +167,8 @@ def distractor_motion(kind: str, rng: np.random.Generator, *, fps: int = 30,
         go, hold, back = (_frames(rng, s, fps) for s in ((0.4, 0.9), (0.3, 1.0), (0.4, 0.9)))
         ramp = np.concatenate([[0.0], minimum_jerk(np.arange(1, go + 1) / go), np.ones(hold),
                                1 - minimum_jerk(np.arange(1, back + 1) / back)])
-        return DistractorMotion(kind, ramp[:, None] * drift, change * ramp)
+        return DistractorMotion(kind, ramp[:, None] * drift, change * ramp,
+                                np.ones(len(ramp), bool))
     offset = np.concatenate(parts)
     offset[-1] = 0.0
-    return DistractorMotion(kind, offset, np.zeros(len(offset)))
+    return DistractorMotion(kind, offset, np.zeros(len(offset)), offset[:, 1] < exit_below)

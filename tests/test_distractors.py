@@ -24,6 +24,8 @@ def test_every_path_starts_and_ends_where_the_hand_was(kind):
         assert path.disparity.shape == (path.frames,)
         assert np.array_equal(path.offset[0], [0, 0]) and np.array_equal(path.offset[-1], [0, 0])
         assert path.disparity[0] == 0 and path.disparity[-1] == 0
+        assert path.in_view.shape == (path.frames,) and path.in_view[0] and path.in_view[-1]
+        assert path.in_view.all() == (kind != "out-of-view")
         assert 30 <= path.frames <= 240           # 1-8 s at 30 fps
         # no jump: at most half an amplitude per frame
         assert np.abs(np.diff(path.offset, axis=0)).max() < 0.5
@@ -38,6 +40,7 @@ def test_each_kind_does_what_its_name_says():
     for _ in range(20):
         out = distractor_motion("out-of-view", rng, exit_below=1.6)
         assert out.offset[:, 1].max() > 1.6                     # below the picture
+        assert np.array_equal(out.in_view, out.offset[:, 1] < 1.6)
         face = np.array([0.1, -1.4])
         scratch = distractor_motion("scratch", rng, face=face)
         assert np.linalg.norm(scratch.offset - face, axis=1).min() < 0.4

@@ -13,7 +13,7 @@ import pytest
 
 from recognition.continuous import spot_stream, stream_pixels, train_continuous
 from recognition.corpus import synthetic_corpus
-from recognition.streams import subject_streams
+from recognition.streams import GestureStream, subject_streams
 from sw_hps.continuous import ContinuousRecogniser
 from sw_hps.hmm import load_models, save_models
 from sw_hps.simulated import run_stream, simulate_stream
@@ -161,6 +161,37 @@ def test_model_file_keeps_the_spotting_options(models, tmp_path):
     save_models(models, path)
     again = load_models(path)
     assert again.spotting == models.spotting and again.spotting["step"] == STEP
+
+
+def test_a_frame_without_a_hand_flushes_as_the_board_does(models, corpus):
+    """Streams whose out-of-view distractors hide the hand: the measured
+    spotter (spot_stream with ``present``) and the board's StreamSpotter on the
+    same records (no hand = area 0) name the same gestures at the same frames."""
+    from sim.model.pipeline import PipelineParams, track
+    from sw_hps.streaming import StreamSpotter
+    held = corpus.subset(np.flatnonzero(corpus.subject == 2))
+    streams = [s for s in subject_streams(held, per_stream=4, seed=3, distractors=True)
+               if not s.present.all()]
+    # and one made to test it: a gesture, the hand gone two frames after its end
+    one = held.trajectory(0)
+    hidden = np.concatenate([one, np.repeat(one[-1:], 30, axis=0)])
+    present = np.ones(len(hidden), bool)
+    present[len(one) + 2:len(one) + 20] = False
+    streams.append(GestureStream(hidden, [[0, len(one) - 1]], [str(held.label[0])],
+                                 present=present))
+    for s in streams:
+        golden = spot_stream(ContinuousRecogniser(models, **models.spotting), s.points, STEP,
+                             "camera", s.present)
+        pts = np.floor(np.maximum(s.points, 0)).astype(np.int64)
+        fixed = track(pts, s.present.astype(np.int64), PipelineParams()).smoothed
+        spotter = StreamSpotter(models, 640)
+        board = []
+        for (x, y), seen in zip(fixed, s.present):
+            board += spotter.take(int(x), int(y), bool(seen))
+        board += spotter.flush()
+        assert [(d.name, d.first, d.last, d.named_at) for d in board] == \
+            [(d.name, d.first, d.last, d.named_at) for d in golden]
+    assert [(d.name, d.named_at) for d in golden] == [(s.labels[0], len(one) + 2)]
 
 
 def test_command_line_continuous(models, stream, tmp_path, capsys):

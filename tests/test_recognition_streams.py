@@ -125,6 +125,39 @@ def test_distractors_before_every_gesture(dollar):
     assert np.median(reach) > 0.3 * unit
     again = subject_streams(dollar, 8, 2, distractors=True)
     assert all(np.array_equal(a.points, b.points) for a, b in zip(mixed, again))
+    assert all(s.present.all() for s in plain)
+
+
+def test_out_of_view_hides_the_hand(dollar, tmp_path):
+    """While an out-of-view distractor has the hand below the picture the
+    stream says no hand (``present`` false): only there, never in a gesture,
+    and the flag survives the file."""
+    from recognition.streams import distractor_stream, gesture_extent
+    mixed = subject_streams(dollar, 8, 2, distractors=True)
+    hidden = 0
+    for s in mixed[:20]:
+        inside = np.zeros(len(s), bool)
+        for first, last in s.spans:
+            inside[first:last + 1] = True
+        assert s.present[inside].all()
+        hidden += (~s.present).sum()
+    assert hidden > 0
+    unit = gesture_extent([dollar.trajectory(i) for i in range(len(dollar))])
+    start = np.array([100.0, 50.0])
+    idle = distractor_stream(start, unit, 3000, np.random.default_rng(1), kinds=("out-of-view",))
+    low = idle.points[:, 1] - start[1] >= 1.6 * unit
+    assert low.any() and np.array_equal(~idle.present, low)
+    alone = distractor_stream(start, unit, 3000, np.random.default_rng(1), kinds=("reach",))
+    assert alone.present.all()
+    path = tmp_path / "s.npz"
+    save_streams(mixed[:3], path)
+    assert all(np.array_equal(a.present, b.present) for a, b in zip(mixed, load_streams(path)))
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files if k != "present"}
+    np.savez(path, **arrays)                     # files from before the flag: always in view
+    assert all(s.present.all() for s in load_streams(path))
+    with pytest.raises(ValueError, match="present must be 3 booleans"):
+        GestureStream(np.zeros((3, 2)), [[0, 1]], ["a"], present=[1, 0])
 
 
 def test_cli_joins_a_dataset_into_streams(tmp_path, dollar):
