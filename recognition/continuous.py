@@ -26,7 +26,7 @@ from sim.distractors import DISTRACTOR_KINDS
 from sw_hps.continuous import SPOTTING_DEFAULTS, ContinuousRecogniser, Detection
 from sw_hps.orientation import DistanceSymbols
 
-__all__ = ["spot_stream", "symbol_gap", "GAP_QUANTILE", "match_detections", "leave_one_subject_out", "stream_summary",
+__all__ = ["spot_stream", "symbol_gap", "symbol_gap_share", "GAP_QUANTILE", "match_detections", "leave_one_subject_out", "stream_summary",
            "idle_stream",
            "calibrate_bias", "train_continuous", "stream_pixels", "distance_sequences",
            "BIAS_GRID", "FRONT_ENDS"]
@@ -74,6 +74,17 @@ def distance_sequences(data: TrajectorySet, step: int, front_end: str = "pen") -
 GAP_QUANTILE = 0.995
 
 
+def _symbol_waits(data: TrajectorySet, step: int, front_end: str):
+    """Per trajectory of ``data``: the frames of its symbols (``step`` pixels
+    of travel per symbol)."""
+    out = []
+    for trajectory in data.trajectories():
+        symbolise = DistanceSymbols(step)
+        out.append(np.array([f for f, p in enumerate(stream_pixels(trajectory, front_end))
+                             if symbolise.push(p) is not None], np.int64))
+    return out
+
+
 def symbol_gap(data: TrajectorySet, step: int, front_end: str = "pen",
                quantile: float | None = None) -> int:
     """The spotting option ``max_gap`` (:mod:`sw_hps.continuous`) learned from
@@ -81,14 +92,24 @@ def symbol_gap(data: TrajectorySet, step: int, front_end: str = "pen",
     two successive symbols (``step`` pixels of travel per symbol), and of
     those the ``quantile`` (1: the longest, so that no training gesture would
     be cut), rounded up."""
-    longest = []
-    for trajectory in data.trajectories():
-        symbolise = DistanceSymbols(step)
-        frames = [f for f, p in enumerate(stream_pixels(trajectory, front_end))
-                  if symbolise.push(p) is not None]
-        longest.append(int(np.diff(frames).max()) if len(frames) > 1 else 0)
+    longest = [int(np.diff(f).max()) if len(f) > 1 else 0
+               for f in _symbol_waits(data, step, front_end)]
     quantile = GAP_QUANTILE if quantile is None else quantile
     return int(np.ceil(np.quantile(longest, quantile))) if longest else 0
+
+
+def symbol_gap_share(data: TrajectorySet, step: int, front_end: str = "pen",
+                     quantile: float | None = None) -> float:
+    """The spotting option ``max_gap_share`` (:mod:`sw_hps.continuous`)
+    learned from gestures: per trajectory of ``data`` with three or more
+    symbols, its longest wait between two successive symbols over its span
+    (first symbol to last, frames), and of those the ``quantile``, rounded up
+    to a thousandth (0: no trajectory has three symbols)."""
+    shares = [float(np.diff(f).max()) / float(f[-1] - f[0])
+              for f in _symbol_waits(data, step, front_end) if len(f) > 2 and f[-1] > f[0]]
+    quantile = GAP_QUANTILE if quantile is None else quantile
+    return min(1.0, float(np.ceil(1000 * np.quantile(shares, quantile)) / 1000)) \
+        if shares else 0.0
 
 
 def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
@@ -237,6 +258,7 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
     calibrate = "threshold_bias" not in (spotting or {})
     learn_gap = "max_gap" not in (spotting or {})
+    learn_share = "max_gap_share" not in (spotting or {})
     sequences = distance_sequences(data, step, front_end)
     per_subject = {}
     totals = np.zeros(5, np.int64)           # true, detections, correct, between, false
@@ -248,6 +270,8 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
         fold = dict(options)
         if learn_gap:
             fold["max_gap"] = symbol_gap(data.subset(train), step, front_end)
+        if learn_share:
+            fold["max_gap_share"] = symbol_gap_share(data.subset(train), step, front_end)
         calibration = None
         if calibrate:
             fold["threshold_bias"], calibration = calibrate_bias(
@@ -264,6 +288,7 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
         per_subject[int(subject)] = dict(
             stream_summary(true, det, correct, latencies, between, false, fps),
             threshold_bias=fold["threshold_bias"], max_gap=fold["max_gap"],
+            max_gap_share=fold["max_gap_share"],
             calibration_f1=calibration)
         if idle_steps:
             idle = idle_stream(held, idle_steps, seed, pause=pause, subject=int(subject))
@@ -312,6 +337,8 @@ def train_continuous(data: TrajectorySet, *, states: int = 8,
     options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
     if "max_gap" not in (spotting or {}):
         options["max_gap"] = symbol_gap(data, step, front_end)
+    if "max_gap_share" not in (spotting or {}):
+        options["max_gap_share"] = symbol_gap_share(data, step, front_end)
     sequences = distance_sequences(data, step, front_end)
     calibration = None
     if "threshold_bias" not in (spotting or {}):

@@ -13,7 +13,8 @@ Model file (JSON), version 3::
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
      "spotting": null | {"threshold_bias": b, "end_delay": n, "min_symbols": k,
-                          "step": s, "max_gap": g},   # max_gap optional (0)
+                          "step": s, "max_gap": g, "max_gap_share": r},
+                                         # max_gap, max_gap_share optional (0)
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,

@@ -101,6 +101,29 @@ def test_max_gap_cuts_a_gesture_that_holds_still_in_the_middle():
     assert [(d.name, d.first) for d in named] == [("up-right", 18)]
 
 
+def test_max_gap_share_refuses_a_wait_out_of_proportion_at_any_speed():
+    """max_gap_share: the longest wait between two symbols of a gesture over
+    its span. A gesture made at one symbol a frame with a pause of 4 in the
+    middle flows (5 of 15 frames), with a pause of 8 it does not (9 of 19);
+    the same shape made four times slower with the pause of 8 flows again
+    (12 of 44), which an absolute max_gap of 10 would cut."""
+    first, second = [0] * 3 + [2] * 3, [0] * 3 + [2] * 3
+    for pause, named in ((4, ["up-right"]), (8, [])):
+        frames = [None] * 4 + first + [None] * pause + second + [None] * 20
+        rec = ContinuousRecogniser(MODELS, end_delay=5, max_gap_share=0.4)
+        assert [d.name for d in _run(rec, frames)] == named, pause
+        assert [d.name for d in _run(ContinuousRecogniser(MODELS, end_delay=5), frames)] == \
+            ["up-right"]                                     # the option off: no limit
+
+    def slow(symbols):
+        return [x for s in symbols for x in (s, None, None, None)]
+    frames = [None] * 4 + slow(first) + [None] * 8 + slow(second) + [None] * 30
+    for options, named in ((dict(max_gap_share=0.4), [("up-right", 4, 48)]),
+                           (dict(max_gap=10), [])):
+        rec = ContinuousRecogniser(MODELS, end_delay=5, **options)
+        assert [(d.name, d.first, d.last) for d in _run(rec, frames)] == named, options
+
+
 def test_threshold_model_rows_sum_to_one():
     log_a, log_b = threshold_model(MODELS.models)
     assert log_a.shape == (16, 16) and log_b.shape == (16, 8)
@@ -112,7 +135,8 @@ def test_threshold_model_rows_sum_to_one():
     (dict(end_delay=0), "end_delay"), (dict(min_symbols=1.5), "min_symbols"),
     (dict(threshold_bias=float("nan")), "threshold_bias"),
     (dict(threshold_bias=True), "threshold_bias"), (dict(max_gap=-1), "max_gap"),
-    (dict(max_gap=2.5), "max_gap")])
+    (dict(max_gap=2.5), "max_gap"), (dict(max_gap_share=1.5), "max_gap_share"),
+    (dict(max_gap_share=-0.1), "max_gap_share")])
 def test_bad_options_name_the_option(options, name):
     with pytest.raises(ValueError, match=name):
         ContinuousRecogniser(MODELS, **options)
@@ -148,6 +172,6 @@ def test_spotting_options_live_in_the_model_file(tmp_path):
     save_models(models, path)
     loaded = load_models(path)
     assert loaded.spotting == {"threshold_bias": -0.5, "end_delay": 6, "min_symbols": 4,
-                               "step": 20, "max_gap": 0}
+                               "step": 20, "max_gap": 0, "max_gap_share": 0.0}
     rec = ContinuousRecogniser(loaded, **loaded.spotting)
     assert (rec.threshold_bias, rec.end_delay) == (-0.5, 6)

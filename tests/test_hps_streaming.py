@@ -167,8 +167,12 @@ def test_a_frame_without_a_hand_flushes_as_the_board_does(models, corpus):
     """Streams whose out-of-view distractors hide the hand: the measured
     spotter (spot_stream with ``present``) and the board's StreamSpotter on the
     same records (no hand = area 0) name the same gestures at the same frames."""
+    import dataclasses
+
     from sim.model.pipeline import PipelineParams, track
     from sw_hps.streaming import StreamSpotter
+    # a long end delay: what is pending when the hand leaves is named then
+    models = dataclasses.replace(models, spotting=dict(models.spotting, end_delay=50))
     held = corpus.subset(np.flatnonzero(corpus.subject == 2))
     streams = [s for s in subject_streams(held, per_stream=4, seed=3, distractors=True)
                if not s.present.all()]

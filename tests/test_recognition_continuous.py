@@ -60,6 +60,12 @@ def test_symbol_gap_is_the_longest_wait_inside_the_training_gestures():
                          np.array(["a"] * 10), subject=np.arange(10))
     assert symbol_gap(data, 8, quantile=1.0) == 11
     assert symbol_gap(data, 8, quantile=0.5) == 2
+    # max_gap_share: the same waits over each trajectory's span, rounded up to
+    # a thousandth: 2 of 6 frames (plain), 11 of 23 (held)
+    from recognition.continuous import symbol_gap_share
+    assert symbol_gap_share(data, 8, quantile=1.0) == 0.479
+    assert symbol_gap_share(data, 8, quantile=0.5) == 0.334
+    assert symbol_gap_share(data, 1000) == 0.0                # no trajectory has 3 symbols
 
 
 def test_distractors_alone_and_the_gap_limit():
