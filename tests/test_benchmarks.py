@@ -185,3 +185,36 @@ def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
     assert idle["false_commands"] == sum(c["false_commands"] for c in idle["clips"])
     assert sum(idle["by_distractor"].values()) == idle["false_commands"]
     assert all(c["distractors"] for c in idle["clips"])
+
+
+def test_continuous_accuracy_judges_each_target_from_either_report(tmp_path, capsys):
+    """benchmarks/continuous_accuracy.py reads both benchmarks' reports and
+    judges each target: met, not met, reported only, or not run."""
+    bench = load_script("continuous_accuracy")
+    sessions = {"true": 80, "f1": 0.985, "latency_median_frames": 3.0,
+                "latency_p95_frames": 12.0, "isolated": None,
+                "idle": {"false_commands_per_10_min": 0.5}}
+    corpus = {"overall": {"gestures": 280, "f1": 0.97, "latency_median_frames": -20.0,
+                          "latency_p95_frames": -9.0}, "idle": None}
+    (tmp_path / "sessions-640.json").write_text(json.dumps(sessions))
+    (tmp_path / "corpus.json").write_text(json.dumps(corpus))
+    (tmp_path / "sessions.json").write_text(json.dumps(
+        dict(sessions, isolated={"clips": 35, "right": 34})))
+    assert bench.main(["--dir", str(tmp_path)]) == 0
+    rows = {(r["run"], r["figure"]): r for r in bench.judge(
+        {name: json.loads((tmp_path / f"{name}.json").read_text())
+         for name in ("sessions-640", "corpus", "sessions")})}
+    assert rows["sessions-640", "f1"]["met"] is True
+    assert rows["sessions-640", "idle_per_10_min"]["met"] is True
+    assert rows["sessions-640", "latency_median"]["met"] is True
+    assert rows["sessions-640", "latency_p95"]["met"] is False
+    assert rows["corpus", "f1"]["met"] is False and rows["corpus", "f1"]["measured"] == "97.00 %"
+    assert rows["sessions", "isolated_wrong"]["met"] is False
+    assert rows["hard", "f1"]["measured"] == "not run" and rows["hard", "f1"]["met"] is None
+    assert rows["dollar", "f1"]["met"] is None
+    out = capsys.readouterr().out
+    assert "| F1 >= 98 % (rendered 640x480, distractors) | sessions-640 | 98.50 % | yes |" in out
+    with pytest.raises(SystemExit):
+        bench.main(["--run", "sessions,nope", "--dir", str(tmp_path)])
+    assert "--run must be all or names of corpus" in capsys.readouterr().err
+    assert set(bench.RUNS) == {run for _, run, *_ in bench.TARGETS}
