@@ -18,8 +18,11 @@ states, 20 px).
 each person's gestures) before every gesture, in the held-out streams and in
 the calibration's; ``--idle-steps N`` spots N steps of distractors alone per
 held-out subject (every command there is false). The spotting's ``max_gap``
-is learned per fold from the training subjects' gestures
-(:func:`recognition.continuous.symbol_gap`).
+and ``max_gap_share`` are learned per fold from the training subjects'
+gestures (:func:`recognition.continuous.symbol_gap`, :func:`~recognition.
+continuous.symbol_gap_share`). Every held-out stream starts the recogniser
+afresh, and a frame whose hand is out of view (an ``out-of-view``
+distractor below the picture) flushes it, as on the board.
 
 Run: ``python benchmarks/continuous_recognition.py [--data dollar|corpus]
 [--subjects 2,3,4] [--states N] [--step PX] [--distractors] [--idle-steps N]
