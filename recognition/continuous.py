@@ -11,9 +11,10 @@
 * :func:`leave_one_subject_out`: per subject, discrete models trained on the
   other subjects' isolated gestures, then that subject's gestures joined into
   streams and spotted. Nothing is tuned on the held-out subject: the threshold
-  model's only option, ``threshold_bias``, is chosen by :func:`calibrate_bias`
-  on the training subjects alone (two halves, each spotted by models of the
-  other), unless given.
+  model's ``threshold_bias`` and then the ``end_delay`` are chosen by
+  :func:`calibrate_spotting` on the training subjects alone (two halves, each
+  spotted by models of the other), unless given; ``max_gap`` and
+  ``max_gap_share`` are learned from the training gestures.
 """
 from __future__ import annotations
 
@@ -28,11 +29,17 @@ from sw_hps.orientation import DistanceSymbols
 
 __all__ = ["spot_stream", "symbol_gap", "symbol_gap_share", "GAP_QUANTILE", "match_detections", "leave_one_subject_out", "stream_summary",
            "idle_stream",
-           "calibrate_bias", "train_continuous", "stream_pixels", "distance_sequences",
-           "BIAS_GRID", "FRONT_ENDS"]
+           "calibrate_spotting", "train_continuous", "stream_pixels", "distance_sequences",
+           "BIAS_GRID", "END_DELAY_GRID", "FRONT_ENDS"]
 
-#: Threshold biases :func:`calibrate_bias` tries (log-likelihood per symbol).
+#: Threshold biases :func:`calibrate_spotting` tries (log-likelihood per symbol).
 BIAS_GRID = (-2.0, -1.5, -1.25, -1.0, -0.75, -0.5, -0.25, 0.0)
+#: End delays (frames) :func:`calibrate_spotting` tries. A vocabulary whose
+#: gestures are pieces of one another (the $1 set: a longer gesture over the
+#: same symbols must get the time to win) needs a longer one than the robot
+#: gestures, whose figures did not move from 1 to 8 frames (development data,
+#: :data:`sw_hps.continuous.SPOTTING_DEFAULTS`).
+END_DELAY_GRID = (2, 4, 8)
 
 
 #: How positions become the integers the symboliser counts in: ``pen``
@@ -191,35 +198,50 @@ def _spot_counts(recogniser, streams, step,
     return true, det, correct, latencies, between, false
 
 
-def calibrate_bias(data: TrajectorySet, sequences, *, states: int, step: int,
-                   emission_floor: float, per_stream: int, pause, seed: int,
-                   spotting: dict, grid=BIAS_GRID,
-                   front_end: str = "pen", distractors: bool = False) -> tuple[float, dict]:
-    """The threshold bias of ``grid`` with the best F1 on ``data``'s subjects
-    (training subjects only): they are dealt into two halves, each half's
-    streams spotted by models trained on the other; ties go to the larger
-    bias (the stricter threshold). Returns the bias and the F1 per bias."""
+def calibrate_spotting(data: TrajectorySet, sequences, *, states: int, step: int,
+                       emission_floor: float, per_stream: int, pause, seed: int,
+                       spotting: dict, grid=BIAS_GRID, delays=END_DELAY_GRID,
+                       front_end: str = "pen",
+                       distractors: bool = False) -> tuple[dict, dict]:
+    """The spotting options chosen on ``data``'s subjects (training subjects
+    only): they are dealt into two halves, each half's streams spotted by
+    models trained on the other. First the threshold bias of ``grid`` with the
+    best F1 at ``spotting``'s end delay (ties go to the larger bias, the
+    stricter threshold), then, at that bias, the end delay of ``delays`` with
+    the best F1 (ties go to the shorter delay; ``delays`` None or empty keeps
+    ``spotting``'s). Returns the chosen ``{"threshold_bias", "end_delay"}``
+    and the F1 of each value tried (``{"threshold_bias": {...},
+    "end_delay": {...}}``)."""
     subjects = np.unique(data.subject)
     if subjects.size < 2:
         raise ValueError("calibration needs at least two training subjects")
     halves = [subjects[0::2], subjects[1::2]]
-    counts = {b: np.zeros(3) for b in grid}
+    folds = []
     for k in range(2):
         train = np.flatnonzero(np.isin(data.subject, halves[1 - k]))
         test = np.flatnonzero(np.isin(data.subject, halves[k]))
         models = train_models([sequences[i] for i in train], data.label[train],
                               data.class_names, states, emission_floor=emission_floor)
-        streams = subject_streams(data.subset(test), per_stream, seed, pause=pause,
-                                  distractors=distractors)
-        for bias in grid:
-            rec = ContinuousRecogniser(models, **dict(spotting, threshold_bias=bias))
-            true, det, correct, *_ = _spot_counts(rec, streams, step, front_end)
-            counts[bias] += (true, det, correct)
-    f1 = {}
-    for bias, (true, det, correct) in counts.items():
-        f1[bias] = 2 * correct / (true + det) if true + det else 0.0
-    best = max(grid, key=lambda b: (f1[b], b))
-    return float(best), {str(b): round(v, 4) for b, v in f1.items()}
+        folds.append((models, subject_streams(data.subset(test), per_stream, seed, pause=pause,
+                                              distractors=distractors)))
+
+    def f1_of(options):
+        true = det = correct = 0
+        for models, streams in folds:
+            t, d, c, *_ = _spot_counts(ContinuousRecogniser(models, **options), streams, step,
+                                       front_end)
+            true, det, correct = true + t, det + d, correct + c
+        return 2 * correct / (true + det) if true + det else 0.0
+
+    f1 = {b: f1_of(dict(spotting, threshold_bias=b)) for b in grid}
+    bias = float(max(grid, key=lambda b: (f1[b], b)))
+    chosen = {"threshold_bias": bias, "end_delay": spotting["end_delay"]}
+    report = {"threshold_bias": {str(b): round(v, 4) for b, v in f1.items()}}
+    if delays:
+        f1_delay = {d: f1_of(dict(spotting, threshold_bias=bias, end_delay=d)) for d in delays}
+        chosen["end_delay"] = int(max(delays, key=lambda d: (f1_delay[d], -d)))
+        report["end_delay"] = {str(d): round(v, 4) for d, v in f1_delay.items()}
+    return chosen, report
 
 
 def _between_frames(stream: GestureStream) -> int:
@@ -257,6 +279,7 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     names = data.class_names
     options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
     calibrate = "threshold_bias" not in (spotting or {})
+    delays = END_DELAY_GRID if "end_delay" not in (spotting or {}) else None
     learn_gap = "max_gap" not in (spotting or {})
     learn_share = "max_gap_share" not in (spotting or {})
     sequences = distance_sequences(data, step, front_end)
@@ -274,10 +297,11 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             fold["max_gap_share"] = symbol_gap_share(data.subset(train), step, front_end)
         calibration = None
         if calibrate:
-            fold["threshold_bias"], calibration = calibrate_bias(
+            chosen, calibration = calibrate_spotting(
                 data.subset(train), [sequences[i] for i in train], states=states, step=step,
                 emission_floor=emission_floor, per_stream=per_stream, pause=pause, seed=seed,
-                spotting=fold, front_end=front_end, distractors=distractors)
+                spotting=fold, delays=delays, front_end=front_end, distractors=distractors)
+            fold.update(chosen)
         models = train_models([sequences[i] for i in train], data.label[train], names, states,
                               emission_floor=emission_floor)
         held = data.subset(np.flatnonzero(data.subject == subject))
@@ -287,7 +311,8 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
             recogniser, streams, step, front_end)
         per_subject[int(subject)] = dict(
             stream_summary(true, det, correct, latencies, between, false, fps),
-            threshold_bias=fold["threshold_bias"], max_gap=fold["max_gap"],
+            threshold_bias=fold["threshold_bias"], end_delay=fold["end_delay"],
+            max_gap=fold["max_gap"],
             max_gap_share=fold["max_gap_share"],
             calibration_f1=calibration)
         if idle_steps:
@@ -327,9 +352,11 @@ def train_continuous(data: TrajectorySet, *, states: int = 8,
                      meta: dict | None = None):
     """Models for the board's continuous spotting: discrete class models
     trained on every trajectory's distance symbols, with a ``spotting`` entry
-    (``step`` and the threshold bias :func:`calibrate_bias` chooses on
-    ``data``'s subjects, unless ``spotting`` gives one). Returns
-    (:class:`sw_hps.hmm.GestureModels`, the calibration's F1 per bias or None)."""
+    (``step``; the threshold bias and the end delay :func:`calibrate_spotting`
+    chooses on ``data``'s subjects, unless ``spotting`` gives the bias, or the
+    delay; ``max_gap`` and ``max_gap_share`` learned from the gestures).
+    Returns (:class:`sw_hps.hmm.GestureModels`, the calibration's F1 per value
+    tried, or None)."""
     import dataclasses
     if data.subject is None:
         raise ValueError("the dataset has no subject (or writer) key: the threshold bias is "
@@ -342,10 +369,12 @@ def train_continuous(data: TrajectorySet, *, states: int = 8,
     sequences = distance_sequences(data, step, front_end)
     calibration = None
     if "threshold_bias" not in (spotting or {}):
-        options["threshold_bias"], calibration = calibrate_bias(
+        chosen, calibration = calibrate_spotting(
             data, sequences, states=states, step=step, emission_floor=emission_floor,
             per_stream=per_stream, pause=pause, seed=seed, spotting=options,
+            delays=END_DELAY_GRID if "end_delay" not in (spotting or {}) else None,
             front_end=front_end)
+        options.update(chosen)
     models = train_models(sequences, data.label, data.class_names, states,
                           emission_floor=emission_floor,
                           meta=dict(meta or {}, front_end=front_end, symbols="distance",

@@ -64,10 +64,11 @@ __all__ = ["Detection", "ContinuousRecogniser", "threshold_model", "SPOTTING_DEF
 #: ``max_gap`` (frames; 0 = no limit) is the longest wait between two symbols
 #: of one gesture, ``max_gap_share`` (0 = no limit) that wait's largest share
 #: of the gesture's span (module docstring). ``end_delay`` 2 was chosen on the
-#: development data (synthetic corpus seed 11, rendered sessions seeds 300-309
-#: with distractors): from 8 down to 1 frame F1 and false commands did not
-#: move, the median latency fell from 11 to -5 frames (the last symbol comes
-#: before the hand settles); 2 keeps a frame of margin against noise.
+#: development data (synthetic corpus seed 11; rendered sessions with
+#: distractors, seeds 300-309 and hard scene 300-304): from 8 down to 1 frame
+#: F1 and false commands did not move, the median latency fell from 11 to -5
+#: frames (the last symbol comes before the hand settles); 2 keeps a frame of
+#: margin against noise.
 SPOTTING_DEFAULTS = {"threshold_bias": 0.0, "end_delay": 2, "min_symbols": 4, "step": 20,
                      "max_gap": 0, "max_gap_share": 0.0}
 _RANGES = {"threshold_bias": (-10.0, 10.0), "end_delay": (1, 1000), "min_symbols": (1, 1000),

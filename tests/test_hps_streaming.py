@@ -233,7 +233,9 @@ def test_train_continuous_command(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out.splitlines()[-1])
     m = load_models(out)
     assert m.spotting == report["spotting"] and m.spotting["step"] == 10
-    assert m.spotting["threshold_bias"] in [float(b) for b in report["calibration_f1"]]
+    calibration = report["calibration_f1"]
+    assert m.spotting["threshold_bias"] in [float(b) for b in calibration["threshold_bias"]]
+    assert m.spotting["end_delay"] in [int(d) for d in calibration["end_delay"]]
     for argv, message in (
             (["--continuous"], "--continuous needs --emission discrete"),
             (["--emission", "discrete", "--step", "5"], "--step applies to --continuous"),

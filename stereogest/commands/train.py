@@ -400,7 +400,7 @@ def _run_continuous(args, data, data_path, say, start) -> int:
     step = SPOTTING_DEFAULTS["step"] if args.step is None else args.step
     say(f"{len(data)} trajectories of {len(set(data.subject.tolist()))} subjects; training "
         f"{args.states}-state models on symbols every {step} px of travel, calibrating the "
-        "threshold bias")
+        "threshold bias and the end delay")
     models, calibration = train_continuous(
         data, states=args.states, step=step,
         emission_floor=args.emission_floor or 1e-3, seed=args.seed,
