@@ -85,3 +85,38 @@ def test_distractors_alone_and_the_gap_limit():
     free = spot_stream(ContinuousRecogniser(MODELS, end_delay=5), points, step=4)
     cut = spot_stream(ContinuousRecogniser(MODELS, end_delay=5, max_gap=12), points, step=4)
     assert [d.name for d in free] == ["up-right"] and cut == []
+
+
+def test_calibration_chooses_the_bias_then_the_end_delay(monkeypatch):
+    """calibrate_spotting: the bias with the best F1 at the given end delay
+    (ties: the larger bias), then at that bias the end delay with the best F1
+    (ties: the shorter delay); counts faked per option so the choice is known."""
+    import recognition.continuous as rc
+    from recognition.corpus import synthetic_corpus
+    data = synthetic_corpus(per_class=2, people=2, seed=4)
+    sequences = rc.distance_sequences(data, 20, "camera")
+    seen = []
+
+    def fake_counts(recogniser, streams, step, front_end="pen"):
+        seen.append((recogniser.threshold_bias, recogniser.end_delay))
+        correct = {(-1.0, 8): 9, (-0.5, 8): 9, (-0.5, 2): 9, (-0.5, 4): 10}.get(
+            (recogniser.threshold_bias, recogniser.end_delay), 5)
+        return 10, 10, correct, [], 0, 0
+
+    monkeypatch.setattr(rc, "_spot_counts", fake_counts)
+    options = dict(rc.SPOTTING_DEFAULTS, end_delay=8)
+    chosen, report = rc.calibrate_spotting(
+        data, sequences, states=3, step=20, emission_floor=1e-3, per_stream=4, pause=(0, 5),
+        seed=0, spotting=options, grid=(-1.0, -0.5, 0.0), delays=(2, 4, 8), front_end="camera")
+    assert chosen == {"threshold_bias": -0.5, "end_delay": 4}
+    assert report["threshold_bias"] == {"-1.0": 0.9, "-0.5": 0.9, "0.0": 0.5}
+    assert report["end_delay"] == {"2": 0.9, "4": 1.0, "8": 0.9}
+    assert {d for b, d in seen if b != -0.5} == {8}         # the bias at the given delay
+    chosen, report = rc.calibrate_spotting(
+        data, sequences, states=3, step=20, emission_floor=1e-3, per_stream=4, pause=(0, 5),
+        seed=0, spotting=options, grid=(-1.0, -0.5), delays=(8, 2), front_end="camera")
+    assert chosen["end_delay"] == 2                          # a tie: the shorter delay
+    chosen, report = rc.calibrate_spotting(
+        data, sequences, states=3, step=20, emission_floor=1e-3, per_stream=4, pause=(0, 5),
+        seed=0, spotting=options, grid=(-1.0,), delays=None, front_end="camera")
+    assert chosen == {"threshold_bias": -1.0, "end_delay": 8} and "end_delay" not in report
