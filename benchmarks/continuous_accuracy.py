@@ -91,7 +91,11 @@ def _shown(figure: str, value) -> str:
         return "not measured"
     if figure == "f1":
         return f"{100 * value:.2f} %"
-    return f"{value:g}"
+    if figure == "idle_per_10_min":
+        return f"{value:.1f} per 10 min"
+    if figure == "isolated_wrong":
+        return f"{value:g} clips wrong"
+    return f"{value:g} frames"
 
 
 def judge(reports: dict) -> list[dict]:
