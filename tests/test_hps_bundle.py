@@ -534,7 +534,10 @@ def test_install_service_fills_in_the_paths(tmp_path, init):
 
 FAKE_PYTHON = """#!/bin/sh
 # python3 stand-in: `-m sw_hps --check ...` answers with the next status of
-# $FAKE_STATUSES (the last one repeats); anything else runs until SIGTERM
+# $FAKE_STATUSES (the last one repeats); anything else runs until SIGTERM.
+# The traps come before the first line: a test that sees it may signal at once.
+trap 'echo "got HUP"' HUP
+trap 'echo "got TERM"; exit 0' TERM
 echo "fake-python $*"
 case " $* " in
     *" --check "*)
@@ -550,8 +553,6 @@ case " $* " in
         exit "$last"
         ;;
 esac
-trap 'echo "got HUP"' HUP
-trap 'echo "got TERM"; exit 0' TERM
 while :; do
     sleep 1 &
     wait $!
