@@ -3,6 +3,7 @@ import io
 import json
 import os
 import shutil
+import signal
 import stat
 import subprocess
 import sys
@@ -587,6 +588,10 @@ def test_wait_core(tmp_path, statuses, wait, code, calls, says):
         assert run.stdout == "fake-python -m sw_hps --check --bus devmem\n"
 
 
+def _default_hup():
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 def _wait_for(predicate, seconds=10.0):
     deadline = time.time() + seconds
     while time.time() < deadline:
@@ -610,8 +615,10 @@ def test_init_script_starts_reloads_and_stops(tmp_path):
     script = str(dest / "etc/init.d/stereogest")
 
     def init(action):
+        # as init runs it: SIGHUP at its default (a shell started with it
+        # ignored, under nohup, cannot trap it, so the stand-in would not log)
         return subprocess.run(["sh", script, action], env=env, capture_output=True, text=True,
-                              timeout=60)
+                              timeout=60, preexec_fn=_default_hup)
 
     pid = None
     try:
