@@ -212,7 +212,6 @@ class ContinuousRecogniser:
         self._symbols = 0
         self._pending = None
         self._longer = False             # a longer gesture may hold the pending one
-        self._symbol_frame = None        # the frame of the last symbol
         self._symbol_frames = np.zeros(_GAP_HISTORY, np.int64)   # symbol k's at k % size
 
     @property
@@ -245,10 +244,9 @@ class ContinuousRecogniser:
             raise ValueError(f"symbol must be in [0, {self._log_b.shape[0] - 1}] or None, "
                              f"got {symbol}")
         k = self._symbols
-        if self.max_gap and self._symbol_frame is not None \
-                and frame - self._symbol_frame > self.max_gap:
+        if self.max_gap and k \
+                and frame - self._symbol_frames[(k - 1) % _GAP_HISTORY] > self.max_gap:
             self._v = np.full(len(self._v), _NEG)     # no gesture spans the pause
-        self._symbol_frame = frame
         self._symbol_frames[k % _GAP_HISTORY] = frame
         loop = self._loop
         # class models: stay on the chain, or enter from the loop
