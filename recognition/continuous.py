@@ -81,7 +81,7 @@ def distance_sequences(data: TrajectorySet, step: int, front_end: str = "pen") -
 GAP_QUANTILE = 0.995
 
 
-def _symbol_waits(data: TrajectorySet, step: int, front_end: str):
+def _symbol_frames(data: TrajectorySet, step: int, front_end: str) -> list:
     """Per trajectory of ``data``: the frames of its symbols (``step`` pixels
     of travel per symbol)."""
     out = []
@@ -92,6 +92,20 @@ def _symbol_waits(data: TrajectorySet, step: int, front_end: str):
     return out
 
 
+def _longest_wait(frames, quantile: float | None) -> int:
+    longest = [int(np.diff(f).max()) if len(f) > 1 else 0 for f in frames]
+    quantile = GAP_QUANTILE if quantile is None else quantile
+    return int(np.ceil(np.quantile(longest, quantile))) if longest else 0
+
+
+def _wait_share(frames, quantile: float | None) -> float:
+    shares = [float(np.diff(f).max()) / float(f[-1] - f[0])
+              for f in frames if len(f) > 2 and f[-1] > f[0]]
+    quantile = GAP_QUANTILE if quantile is None else quantile
+    return min(1.0, float(np.ceil(1000 * np.quantile(shares, quantile)) / 1000)) \
+        if shares else 0.0
+
+
 def symbol_gap(data: TrajectorySet, step: int, front_end: str = "pen",
                quantile: float | None = None) -> int:
     """The spotting option ``max_gap`` (:mod:`sw_hps.continuous`) learned from
@@ -99,10 +113,7 @@ def symbol_gap(data: TrajectorySet, step: int, front_end: str = "pen",
     two successive symbols (``step`` pixels of travel per symbol), and of
     those the ``quantile`` (1: the longest, so that no training gesture would
     be cut), rounded up."""
-    longest = [int(np.diff(f).max()) if len(f) > 1 else 0
-               for f in _symbol_waits(data, step, front_end)]
-    quantile = GAP_QUANTILE if quantile is None else quantile
-    return int(np.ceil(np.quantile(longest, quantile))) if longest else 0
+    return _longest_wait(_symbol_frames(data, step, front_end), quantile)
 
 
 def symbol_gap_share(data: TrajectorySet, step: int, front_end: str = "pen",
@@ -112,11 +123,20 @@ def symbol_gap_share(data: TrajectorySet, step: int, front_end: str = "pen",
     symbols, its longest wait between two successive symbols over its span
     (first symbol to last, frames), and of those the ``quantile``, rounded up
     to a thousandth (0: no trajectory has three symbols)."""
-    shares = [float(np.diff(f).max()) / float(f[-1] - f[0])
-              for f in _symbol_waits(data, step, front_end) if len(f) > 2 and f[-1] > f[0]]
-    quantile = GAP_QUANTILE if quantile is None else quantile
-    return min(1.0, float(np.ceil(1000 * np.quantile(shares, quantile)) / 1000)) \
-        if shares else 0.0
+    return _wait_share(_symbol_frames(data, step, front_end), quantile)
+
+
+def _learned_gaps(frames, spotting: dict | None) -> dict:
+    """``max_gap`` (:func:`symbol_gap`) and ``max_gap_share``
+    (:func:`symbol_gap_share`) from the training gestures' symbol ``frames``,
+    each unless ``spotting`` gives it."""
+    given = spotting or {}
+    learned = {}
+    if "max_gap" not in given:
+        learned["max_gap"] = _longest_wait(frames, None)
+    if "max_gap_share" not in given:
+        learned["max_gap_share"] = _wait_share(frames, None)
+    return learned
 
 
 def spot_stream(recogniser: ContinuousRecogniser, points, step: int,
@@ -280,9 +300,8 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
     calibrate = "threshold_bias" not in (spotting or {})
     delays = END_DELAY_GRID if "end_delay" not in (spotting or {}) else None
-    learn_gap = "max_gap" not in (spotting or {})
-    learn_share = "max_gap_share" not in (spotting or {})
     sequences = distance_sequences(data, step, front_end)
+    frames = _symbol_frames(data, step, front_end)
     per_subject = {}
     totals = np.zeros(5, np.int64)           # true, detections, correct, between, false
     all_latencies = []
@@ -290,11 +309,7 @@ def leave_one_subject_out(data: TrajectorySet, *, states: int = 12, step: int = 
     idle_by_kind = dict.fromkeys(DISTRACTOR_KINDS, 0)
     for subject in np.unique(data.subject):
         train = np.flatnonzero(data.subject != subject)
-        fold = dict(options)
-        if learn_gap:
-            fold["max_gap"] = symbol_gap(data.subset(train), step, front_end)
-        if learn_share:
-            fold["max_gap_share"] = symbol_gap_share(data.subset(train), step, front_end)
+        fold = dict(options, **_learned_gaps([frames[i] for i in train], spotting))
         calibration = None
         if calibrate:
             chosen, calibration = calibrate_spotting(
@@ -362,10 +377,7 @@ def train_continuous(data: TrajectorySet, *, states: int = 8,
         raise ValueError("the dataset has no subject (or writer) key: the threshold bias is "
                          "calibrated on held-out subjects")
     options = dict(SPOTTING_DEFAULTS, **(spotting or {}), step=step)
-    if "max_gap" not in (spotting or {}):
-        options["max_gap"] = symbol_gap(data, step, front_end)
-    if "max_gap_share" not in (spotting or {}):
-        options["max_gap_share"] = symbol_gap_share(data, step, front_end)
+    options.update(_learned_gaps(_symbol_frames(data, step, front_end), spotting))
     sequences = distance_sequences(data, step, front_end)
     calibration = None
     if "threshold_bias" not in (spotting or {}):
