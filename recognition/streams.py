@@ -157,6 +157,14 @@ class _Distractors:
         return start + self.unit * motion.offset[1:], motion.in_view[1:]
 
 
+def _present(steps: int, hidden) -> np.ndarray:
+    """``steps`` flags, true but at the indices of the arrays ``hidden``."""
+    present = np.ones(steps, bool)
+    for indices in hidden:
+        present[indices] = False
+    return present
+
+
 def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
                 subject: int = 0, distractors: bool = False) -> GestureStream:
     """The gestures ``parts`` (each (T_i, 2)) in order, as one stream: after
@@ -171,12 +179,13 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
     if not parts or len(parts) != len(labels):
         raise ValueError(f"parts and labels must be non-empty and as many, got {len(parts)} "
                          f"and {len(labels)}")
-    pieces, hidden, spans, at = [], [], [], 0
+    pieces, spans, at = [], [], 0
+    hidden = []                       # distractor steps with the hand out of view
     others = _Distractors(rng, gesture_extent(parts)) if distractors else None
     for k, part in enumerate(parts):
         if others is not None:
             before, in_view = others.path(part[0])
-            hidden += (at + np.flatnonzero(~in_view)).tolist()
+            hidden.append(at + np.flatnonzero(~in_view))
             hold = int(rng.integers(pause[0], pause[1] + 1))
             for piece in (before, np.repeat(part[:1], hold, axis=0)):
                 pieces.append(piece)
@@ -192,10 +201,8 @@ def join_stream(parts, labels, rng: np.random.Generator, *, pause=(0, 15),
             for piece in between:
                 pieces.append(piece)
                 at += len(piece)
-    present = np.ones(at, bool)
-    present[hidden] = False
     return GestureStream(np.concatenate(pieces), np.array(spans, np.int64),
-                         np.array(labels), subject, present)
+                         np.array(labels), subject, _present(at, hidden))
 
 
 def subject_streams(data: TrajectorySet, per_stream: int, seed: int = 0, *,
@@ -244,14 +251,12 @@ def distractor_stream(start, unit: float, steps: int, rng: np.random.Generator, 
     pieces, hidden, at = [start], [], 1
     while at < steps:
         path, in_view = others.path(start[0])
-        hidden += (at + np.flatnonzero(~in_view)).tolist()
+        hidden.append(at + np.flatnonzero(~in_view))
         for piece in (path, np.repeat(start, int(rng.integers(pause[0], pause[1] + 1)), axis=0)):
             pieces.append(piece)
             at += len(piece)
-    present = np.ones(at, bool)
-    present[hidden] = False
     return GestureStream(np.concatenate(pieces)[:steps], np.zeros((0, 2), np.int64),
-                         np.zeros(0, str), subject, present[:steps])
+                         np.zeros(0, str), subject, _present(at, hidden)[:steps])
 
 
 def save_streams(streams, path) -> None:
