@@ -45,11 +45,13 @@ def stream(corpus):
     return subject_streams(held, per_stream=8, seed=3)[0]
 
 
-def _smoothed_fixed(points):
-    """What the FIFO holds: the camera front end's 10.8 positions."""
+def _smoothed_fixed(points, present=None):
+    """What the FIFO holds: the camera front end's 10.8 positions (``present``:
+    the frames with a hand, default all)."""
     from sim.model.pipeline import PipelineParams, track
     pts = np.floor(np.maximum(np.asarray(points, np.float64), 0)).astype(np.int64)
-    return track(pts, np.ones(len(pts), np.int64), PipelineParams()).smoothed
+    areas = np.ones(len(pts), np.int64) if present is None else np.asarray(present, np.int64)
+    return track(pts, areas, PipelineParams()).smoothed
 
 
 def test_board_loop_names_what_the_measured_spotter_names(models, stream):
@@ -168,9 +170,9 @@ def test_a_frame_without_a_hand_flushes_as_the_board_does(models, corpus):
     spotter (spot_stream with ``present``) and the board's StreamSpotter on the
     same records (no hand = area 0) name the same gestures at the same frames."""
     import dataclasses
+    from types import SimpleNamespace
 
-    from sim.model.pipeline import PipelineParams, track
-    from sw_hps.streaming import StreamSpotter
+    from stereogest.pipeline_outputs import stream_results
     # a long end delay: what is pending when the hand leaves is named then
     models = dataclasses.replace(models, spotting=dict(models.spotting, end_delay=50))
     held = corpus.subset(np.flatnonzero(corpus.subject == 2))
@@ -186,14 +188,10 @@ def test_a_frame_without_a_hand_flushes_as_the_board_does(models, corpus):
     for s in streams:
         golden = spot_stream(ContinuousRecogniser(models, **models.spotting), s.points, STEP,
                              "camera", s.present)
-        pts = np.floor(np.maximum(s.points, 0)).astype(np.int64)
-        fixed = track(pts, s.present.astype(np.int64), PipelineParams()).smoothed
-        spotter = StreamSpotter(models, 640)
-        board = []
-        for (x, y), seen in zip(fixed, s.present):
-            board += spotter.take(int(x), int(y), bool(seen))
-        board += spotter.flush()
-        assert [(d.name, d.first, d.last, d.named_at) for d in board] == \
+        # the board's StreamSpotter on the records, as the benchmarks run it
+        board = stream_results(models, SimpleNamespace(
+            smoothed=_smoothed_fixed(s.points, s.present), area=s.present), 640)
+        assert [(d["name"], d["first"], d["last"], d["named_at"]) for d in board] == \
             [(d.name, d.first, d.last, d.named_at) for d in golden]
     assert [(d.name, d.named_at) for d in golden] == [(s.labels[0], len(one) + 2)]
 
