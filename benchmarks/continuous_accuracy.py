@@ -5,8 +5,9 @@ Each run of :data:`RUNS` is one of the two benchmarks that measure them
 out; ``continuous_sessions.py``: rendered sessions through the golden model of
 the whole pipeline and the board's spotter) with the issue's settings, and
 writes its report to ``--dir`` (``build/continuous/<run>.json``). ``--run``
-runs the named ones first (``all``: every one, about 110 CPU minutes here, most
-of it the 640x480 sessions and the $1 logs); then every target of
+runs the named ones first (``all``: every one, 123 user CPU minutes here in
+the runs of issue 28's third round, most of it the 640x480 sessions and the
+$1 logs); then every target of
 :data:`TARGETS` is printed beside the figure measured and whether it is met,
 ``not run`` where its report is missing.
 
@@ -137,7 +138,10 @@ def main(argv=None) -> int:
     if unknown:
         ap.error(f"--run must be all or names of {', '.join(RUNS)}, got {', '.join(unknown)}")
     directory = Path(args.dir)
-    directory.mkdir(parents=True, exist_ok=True)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        ap.error(f"--dir: cannot use {directory} ({exc.strerror})")
     for name in names:
         print(f"{name}: {run(name, directory):.0f} CPU s", flush=True)
     reports = {}
@@ -146,8 +150,10 @@ def main(argv=None) -> int:
         if path.is_file():
             try:
                 reports[name] = json.loads(path.read_text())
-            except (OSError, ValueError) as exc:
-                ap.error(f"--dir: {path} is not a readable report ({exc})")
+                figures(reports[name])
+            except (OSError, ValueError, TypeError, KeyError, AttributeError) as exc:
+                ap.error(f"--dir: {path} is not a readable report of {RUNS[name][0]} "
+                         f"({type(exc).__name__}: {exc})")
     rows = judge(reports)
     print("| target | run | measured | met |\n|---|---|---|---|")
     for r in rows:

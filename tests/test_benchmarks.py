@@ -218,3 +218,13 @@ def test_continuous_accuracy_judges_each_target_from_either_report(tmp_path, cap
         bench.main(["--run", "sessions,nope", "--dir", str(tmp_path)])
     assert "--run must be all or names of corpus" in capsys.readouterr().err
     assert set(bench.RUNS) == {run for _, run, *_ in bench.TARGETS}
+    # bad reports and directories: one line naming them, exit 2
+    (tmp_path / "hard.json").write_text("[1, 2]")
+    with pytest.raises(SystemExit) as exit_:
+        bench.main(["--dir", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "hard.json is not a readable report of " \
+        "continuous_sessions.py" in err and "Traceback" not in err
+    with pytest.raises(SystemExit):
+        bench.main(["--dir", str(tmp_path / "hard.json" / "x")])
+    assert "--dir: cannot use" in capsys.readouterr().err
