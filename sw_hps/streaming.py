@@ -15,8 +15,9 @@ gesture boundaries itself:
   one (:class:`~sw_hps.orientation.DistanceSymbols`: a still or jittering hand
   gives none);
 * :class:`~sw_hps.continuous.ContinuousRecogniser` (the class models beside
-  their threshold model) names a gesture within ``end_delay`` frames of its
-  end, once, and refuses what no gesture explains;
+  their threshold model) names a gesture ``end_delay`` frames after its last
+  symbol (up to four times that while a longer gesture over the same symbols
+  may still win), once, and refuses what no gesture explains;
 * a frame without a hand flushes: what is pending is named and the paths start
   afresh (the hand left the view);
 * a named gesture's NXT telegram goes to the robot at once.
