@@ -8,7 +8,7 @@ Board functions (our Table 22; the thesis gives SW[9:7] and LEDR[4])
 
 ======== =================================================================
 KEY[0]   reset of the FPGA side (held: cameras in reset, core reset)
-KEY[1]   press: restart the configuration of both cameras (I2C tables)
+KEY[1]   press: power-cycle both cameras and rewrite their registers (I2C)
 KEY[2]   held: camera capture paused
 KEY[3]   unused
 SW[0]    on: camera capture runs
@@ -32,7 +32,7 @@ Both cameras use the same header pins, the right camera on GPIO_0 (``ov5642``
 number 0), the left on GPIO_1 (number 1). Header pin 29 is 3.3 V and pin 30
 ground (pins 11 and 12 are 5 V and ground); the OV5642 module runs from 3.3 V.
 D[9:2] is the camera's 8-bit output (D[1:0] unused). RESETB and PWDN are
-driven (held high and low) in case the module has no pull resistors.
+driven by the camera's configuration master (its power-up sequence).
 
 ====== ===== ============ ====== ======
 signal pin   GPIO index   GPIO_0 GPIO_1
@@ -72,7 +72,6 @@ from __future__ import annotations
 
 from amaranth.build import Attrs, Clock, Pins, Resource, Subsignal
 from amaranth_boards.de1_soc import DE1SoCPlatform
-from amaranth_boards.resources import UARTResource
 
 __all__ = ["StereogestDE1SoCPlatform", "CAMERA_PINS", "CAMERA_HEADERS", "UART_PINS",
            "PCLK_MAX_FREQUENCY", "HPS_IO_PINS", "header_gpio_index"]
@@ -131,8 +130,9 @@ HPS_IO_PINS = {
 }
 
 _LVTTL = Attrs(io_standard="3.3-V LVTTL")
-# open-drain lines and the idle-high UART input get the FPGA's weak pull-up as
-# a fallback for modules without their own
+# inputs that must not float: the open-drain I2C lines (a fallback for modules
+# without their own pull-ups, too weak for 400 kHz: boards/README.md) and the
+# idle-high UART input; a driven output gets none (it would do nothing)
 _PULLED_UP = Attrs(io_standard="3.3-V LVTTL", weak_pull_up_resistor="ON")
 _SSTL15 = Attrs(io_standard="SSTL-15 CLASS I")
 _SSTL15_DIFF = Attrs(io_standard="DIFFERENTIAL 1.5-V SSTL CLASS I")
@@ -230,8 +230,10 @@ class StereogestDE1SoCPlatform(DE1SoCPlatform):
         *DE1SoCPlatform.resources,
         _VGA,
         _camera(0), _camera(1),
-        UARTResource(0, rx=UART_PINS["rx"], tx=UART_PINS["tx"], conn=("gpio", 0),
-                     attrs=_PULLED_UP),
+        Resource("uart", 0,
+                 Subsignal("rx", Pins(UART_PINS["rx"], dir="i", conn=("gpio", 0)), _PULLED_UP),
+                 Subsignal("tx", Pins(UART_PINS["tx"], dir="o", conn=("gpio", 0))),
+                 _LVTTL),
         _HPS_DDR3,
         _HPS_IO,
     ]

@@ -10,7 +10,11 @@ system ``soc_system`` (HPS + :class:`soc.core.StereogestCore`).
     ov5642 #1 PCLK ------> cam_left domain  (left camera, GPIO_1)
     ov5642 #0 PCLK ------> cam_right domain (right camera, GPIO_0)
     KEY[0], PLL unlocked or the HPS's h2f_reset --> reset of every domain
-                                                 (synchronised per domain)
+                                                 (synchronised per domain here;
+                                                 soc_system's reset input gets
+                                                 it asynchronous, declared so:
+                                                 Platform Designer synchronises)
+    core left_power / right_power ------> each camera's PWDN and RESETB
     HPS peripheral pins <--> soc_system hps_io (dedicated HPS I/O, no FPGA logic)
 
 The core sits inside ``soc_system``; its conduits come out as ``soc_system``
@@ -52,6 +56,7 @@ _SOURCES = frozenset([
     "uart_rx", "capture", "stage_select", "configure", "pause"])
 _SINKS = frozenset([
     *(f"{side}_i2c__{sig}_oe" for side in _SIDES for sig in ("scl", "sda")),
+    *(f"{side}_power__{sig}" for side in _SIDES for sig in ("pwdn", "reset_n")),
     "uart_tx", "leds",
     *(f"vga__{name}" for name in ("r", "g", "b", "hsync", "vsync", "blank_n"))])
 
@@ -171,9 +176,10 @@ class BoardTop(Elaboratable):
             m.submodules[f"{side}_xclk_buf"] = xclk = io.DDRBuffer("o", cam.xclk,
                                                                    o_domain="xclk")
             m.d.comb += [xclk.o[0].eq(1), xclk.o[1].eq(0)]
-            m.submodules[f"{side}_reset_n_buf"] = cam_rst = io.Buffer("o", cam.reset_n)
-            m.submodules[f"{side}_pwdn_buf"] = pwdn = io.Buffer("o", cam.pwdn)
-            m.d.comb += [cam_rst.o.eq(~ResetSignal("xclk")), pwdn.o.eq(0)]
+            # PWDN and RESETB from the camera's configuration master (its power-up)
+            for sig in ("reset_n", "pwdn"):
+                m.submodules[f"{side}_{sig}_buf"] = buf = io.Buffer("o", getattr(cam, sig))
+                sinks[f"{side}_power__{sig}"] = buf.o
 
         uart = platform.request("uart", 0, dir="-")
         m.submodules.uart_rx_buf = rx = io.Buffer("i", uart.rx)

@@ -16,8 +16,8 @@ Board functions (our Table 22; the thesis gives SW[9:7] and LEDR[4]):
 =========  ==========================================================
 input      ``stage_select`` (SW[9:7]) VGA stage, :data:`VIDEO_STAGES`;
            ``capture`` (SW[0]) cameras captured; ``pause`` (KEY[2]
-           held) capture paused; ``configure`` (KEY[1]) rewrite both
-           cameras' registers. All asynchronous, synchronised here.
+           held) capture paused; ``configure`` (KEY[1]) power-cycle
+           both cameras and rewrite their registers. All asynchronous, synchronised here.
 ``leds``   [0] left camera configured, [1] right camera configured,
            [2] configuration error, [3] FIFO-FULL, [4] gesture detected,
            [5] GO (the HPS application runs), [6] synchroniser fault
@@ -43,11 +43,12 @@ from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
 from .frame_buffer import NO_INIT_ATTR, VGA_SCALE, FrameBuffer
 from .hps_interface import DATA_BITS, FIFO_BASE, FIFO_DEPTH, UART_BASE
-from .ov5642_config import Ov5642Config
+from .ov5642_config import SCL_FREQ_RANGE, Ov5642Config
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
 
-__all__ = ["StereogestCore", "CameraPins", "I2cPins", "CORE_NAME", "CLOCK_DOMAINS",
+__all__ = ["StereogestCore", "CameraPins", "I2cPins", "CameraPowerPins", "CORE_NAME",
+           "CLOCK_DOMAINS",
            "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "core_ports", "emit_core_verilog",
            "strip_zero_init", "VGA_SCALE",
            "VIDEO_STAGES"]
@@ -64,6 +65,9 @@ CameraPins = wiring.Signature({"vsync": Out(1), "href": Out(1), "data": Out(8)})
 #: Open-drain I2C pins: ``*_oe`` pulls the line low, ``*_i`` is the line level.
 I2cPins = wiring.Signature({"scl_oe": Out(1), "sda_oe": Out(1),
                             "scl_i": In(1), "sda_i": In(1)})
+#: A camera's power-down (PWDN, 1: power down) and reset (RESETB, 0: reset)
+#: pins, driven by its configuration master's power-up sequence.
+CameraPowerPins = wiring.Signature({"pwdn": Out(1), "reset_n": Out(1)})
 
 
 class StereogestCore(wiring.Component):
@@ -100,12 +104,19 @@ class StereogestCore(wiring.Component):
         (:data:`soc.frame_buffer.VGA_SCALE`, the default: it saves M10K blocks).
     config_table : sequence of (address, value, delay_ms), optional
         OV5642 register writes (default: the vendored 988-row table).
+    scl_freq : float in (0, 400e3]
+        Highest SCL frequency of the cameras' I2C in Hz (fast mode, 400 kHz, by
+        default; lower it for cameras without their own pull-ups,
+        boards/README.md).
 
     Ports
     -----
     fifo, uart : ``In(AvalonSlaveSignature)``, the two slaves (sync domain).
     left, right : ``In(CameraPins)`` in ``cam_left`` / ``cam_right``.
     left_i2c, right_i2c : ``Out(I2cPins)`` in ``config``.
+    left_power, right_power : ``Out(CameraPowerPins)`` in ``config``: PWDN and
+        RESETB of each camera, held in power-down and reset while the core is
+        in reset and released by the master's power-up sequence.
     uart_tx, uart_rx : the robot link.
     vga : the VGA DAC signals (``vga`` domain).
     stage_select, capture, pause, configure, leds : board functions (above).
@@ -120,7 +131,7 @@ class StereogestCore(wiring.Component):
                  fifo_depth: int = FIFO_DEPTH, sync_fifo_depth: int = 2048,
                  uart_baudrate: int = 115200, frame_buffer_bits: int = FRAME_BUFFER_BITS,
                  vga_scale: int = VGA_SCALE,
-                 config_table=None):
+                 config_table=None, scl_freq: float = SCL_FREQ_RANGE[1]):
         width, height = check_geometry(width, height)
         self.sync_freq = check_number("sync_freq", sync_freq, 1e6, 500e6, unit="Hz")
         self.config_freq = check_number("config_freq", config_freq, 1e6, 500e6, unit="Hz")
@@ -141,7 +152,8 @@ class StereogestCore(wiring.Component):
         self.fifo_slave = FifoSlave(data_bits=DATA_BITS, depth=fifo_depth,
                                     frame_width=width, frame_height=height)
         self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
-        self.config = [Ov5642Config(clk_freq=self.config_freq, table=config_table)
+        self.config = [Ov5642Config(clk_freq=self.config_freq, scl_freq=scl_freq,
+                                    table=config_table)
                        for _ in range(2)]
         self.frame_buffer = FrameBuffer(width, height, vga_mode, pixel_bits=frame_buffer_bits,
                                         scale=vga_scale)
@@ -155,6 +167,7 @@ class StereogestCore(wiring.Component):
             "uart": self.uart_slave.signature.members["bus"],
             "left": In(CameraPins), "right": In(CameraPins),
             "left_i2c": Out(I2cPins), "right_i2c": Out(I2cPins),
+            "left_power": Out(CameraPowerPins), "right_power": Out(CameraPowerPins),
             "uart_tx": Out(1, init=1), "uart_rx": In(1, init=1),
             "vga": self.frame_buffer.signature.members["vga"],
             "stage_select": In(3), "capture": In(1), "pause": In(1), "configure": In(1),
@@ -200,9 +213,11 @@ class StereogestCore(wiring.Component):
         for side, master in zip(("left", "right"), self.config):
             m.submodules[f"config_{side}"] = cfg = DomainRenamer("config")(master)
             pins = getattr(self, f"{side}_i2c")
+            power = getattr(self, f"{side}_power")
             m.d.comb += [cfg.start.eq(configure), pins.scl_oe.eq(cfg.scl_oe),
                          pins.sda_oe.eq(cfg.sda_oe), cfg.scl_i.eq(pins.scl_i),
-                         cfg.sda_i.eq(pins.sda_i)]
+                         cfg.sda_i.eq(pins.sda_i),
+                         power.pwdn.eq(cfg.pwdn), power.reset_n.eq(cfg.reset_n)]
             done, error = Signal(name=f"{side}_configured"), Signal(name=f"{side}_config_error")
             m.submodules[f"{side}_done_sync"] = cdc.FFSynchronizer(cfg.done, done)
             m.submodules[f"{side}_error_sync"] = cdc.FFSynchronizer(cfg.error, error)

@@ -35,11 +35,12 @@ from sim.model.validation import check_number
 
 from .clocks import CONFIG_HZ, PCLK_HZ, SYNC_HZ, VGA_HZ, XCLK_HZ
 from .hps_interface import LIGHTWEIGHT_BRIDGE_BASE, SLAVE_BASES
+from .ov5642_config import SCL_FREQ_RANGE
 from .platform_designer import CORE_INSTANCE, DEVICE, SYSTEM_NAME, core_interfaces, hw_tcl, \
     system_tcl, verilog_ports
 
 __all__ = ["generate", "check_out_dir", "BundleInfo", "MARKER", "PROJECT", "CORE_FILE", "HW_TCL", "SYSTEM_TCL",
-           "RBF", "RBF_COMPRESSED", "CONFIGURATION_SCHEME",
+           "RBF", "RBF_COMPRESSED", "CONFIGURATION_SCHEME", "HANDOFF",
            "is_bundle", "GrayCrossing", "async_fifo_crossings", "sdc_constraints",
            "pll_clock_name", "OV5642_DVP", "ADV7123", "SYSTEM_INSTANCE"]
 
@@ -58,6 +59,9 @@ CONFIGURATION_SCHEME = "PASSIVE PARALLEL X16"
 #: the MSEL pins (docs/bring-up.md).
 RBF = f"{PROJECT}.rbf"
 RBF_COMPRESSED = f"{PROJECT}_compressed.rbf"
+#: Where Quartus writes the HPS handoff while it compiles the project (the
+#: preloader and U-Boot are built from it).
+HANDOFF = f"hps_isw_handoff/{SYSTEM_NAME}_hps_0"
 #: File that marks a directory as a stereogest bundle.
 MARKER = "stereogest-bundle.json"
 #: Amaranth's build scripts (they run only quartus_map..sta, not the whole flow) and its
@@ -116,7 +120,7 @@ def check_out_dir(out_dir) -> Path:
 def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = SYNC_HZ,
              vga_hz: float = VGA_HZ, xclk_hz: float = XCLK_HZ, rectification=None,
              hand_tracking: bool = False, vga_scale: int | None = None,
-             progress=None) -> BundleInfo:
+             scl_hz: float = SCL_FREQ_RANGE[1], progress=None) -> BundleInfo:
     """Write the Quartus project and Platform Designer pieces into ``out_dir``.
 
     Parameters
@@ -137,6 +141,9 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     vga_scale : int in [1, 2], optional
         Resolution of the VGA debug view's frame buffer (None: the core's
         default, :data:`soc.frame_buffer.VGA_SCALE`).
+    scl_hz : float in (0, 400e3]
+        Highest SCL frequency of the cameras' I2C (400 kHz; lower for cameras
+        without their own pull-ups, boards/README.md).
     progress : callable, optional
         Called with one-line progress messages.
 
@@ -156,6 +163,7 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     sync_hz = check_number("sync_hz", sync_hz, 10e6, 200e6, unit="Hz")
     vga_hz = check_number("vga_hz", vga_hz, 10e6, 100e6, unit="Hz")
     xclk_hz = check_number("xclk_hz", xclk_hz, 6e6, 27e6, unit="Hz")
+    scl_hz = check_number("scl_hz", scl_hz, *SCL_FREQ_RANGE, unit="Hz", lo_open=True)
     from sim.model.validation import check_int
     from sim.model.vga import SCALE_RANGE
 
@@ -183,7 +191,8 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     from hdl.gesture_pipeline import pipeline_timing
     pipeline_timing(*check_geometry(width, height), params, rectification)
     core = StereogestCore(width, height, params, rectification=rectification,
-                          sync_freq=sync_hz, vga_mode=vga_mode, vga_scale=vga_scale)
+                          sync_freq=sync_hz, vga_mode=vga_mode, vga_scale=vga_scale,
+                          scl_freq=scl_hz)
     say(f"elaborating the core ({width}x{height}) ...")
     core_v = emit_core_verilog(core)
     ports = core_ports(core)
@@ -211,12 +220,12 @@ def generate(out_dir, width: int = 640, height: int = 480, *, sync_hz: float = S
     files[BUILD_SCRIPT] = _build_script()
     refresh = vga_hz / (vga_mode.h_total * vga_mode.v_total)
     files["README.md"] = _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports,
-                                 bases, vga_scale)
+                                 bases, vga_scale, scl_hz)
     files[MARKER] = json.dumps({
         "generator": "stereogest generate", "width": width, "height": height,
         "sync_hz": sync_hz, "vga_hz": vga_hz, "xclk_hz": xclk_hz,
         "hand_tracking": {"track_gate": params.track_gate, "hand_rows": params.hand_rows},
-        "vga_scale": vga_scale,
+        "vga_scale": vga_scale, "scl_hz": scl_hz,
         "device": DEVICE, "files": sorted([*files, MARKER]),
     }, indent=2) + "\n"
 
@@ -555,10 +564,16 @@ quartus_sta {PROJECT} -c {PROJECT}
 quartus_cpf -c -o bitstream_compression=on {PROJECT}.sof {RBF_COMPRESSED}
 echo "done: {PROJECT}.sof (JTAG), {RBF} (MSEL without compression) and {RBF_COMPRESSED}"
 echo "(MSEL with compression); loading them: BRINGUP.md of the board bundle"
+if [ -d {HANDOFF} ]; then
+    echo "the HPS handoff for the preloader and U-Boot: {HANDOFF} (README.md, step 5)"
+else
+    echo "warning: Quartus wrote no {HANDOFF}: the preloader cannot be built from this project" >&2
+fi
 """
 
 
-def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases, vga_scale) -> str:
+def _readme(width, height, sync_hz, vga_hz, xclk_hz, refresh, ports, bases, vga_scale,
+            scl_hz) -> str:
     conduits = [i for i in core_interfaces(ports) if i.kind == "conduit"]
     slaves = [i for i in core_interfaces(ports) if i.kind == "avalon"]
     slave_rows = "\n".join(
@@ -593,7 +608,7 @@ directory as a whole (Quartus outputs in it included).
 | pipeline and bus (core `clk`, lightweight bridge) | PLL output 0 | {sync_hz / 1e6:g} MHz |
 | VGA pixel clock (640x480 raster, {refresh:.1f} Hz frames) | PLL output 1 | {vga_hz / 1e6:g} MHz |
 | camera XCLK (both cameras) | PLL output 2 | {xclk_hz / 1e6:g} MHz |
-| camera configuration (I2C) | board oscillator CLOCK_50 | {CONFIG_HZ / 1e6:g} MHz |
+| camera configuration (I2C master; SCL at most {scl_hz / 1e3:g} kHz) | board oscillator CLOCK_50 | {CONFIG_HZ / 1e6:g} MHz |
 | left / right camera | each camera's PCLK | set by the camera |
 
 ## Address map (lightweight HPS-to-FPGA bridge)
@@ -621,32 +636,39 @@ in this directory (`sh {BUILD_SCRIPT}` runs steps 1-4):
    `quartus_asm {PROJECT} -c {PROJECT}`, `quartus_sta {PROJECT} -c {PROJECT}`,
    then `quartus_cpf -c -o bitstream_compression=on {PROJECT}.sof {RBF_COMPRESSED}`.
    Out come `{PROJECT}.sof` (JTAG), `{RBF}` (uncompressed) and `{RBF_COMPRESSED}`;
-   the project configures by fast passive parallel, as the HPS does.
-5. Program the FPGA: over the USB-Blaster (the FPGA is the second device of the
+   the project configures by fast passive parallel, as the HPS does. Quartus
+   also writes the HPS handoff during compilation: `{HANDOFF}/` (the HPS's pin
+   multiplexing, clocks and DDR3 settings, for the boot loader).
+5. Build the preloader and U-Boot from that handoff, with the SoC EDS of the
+   same version as Quartus: `bsp-create-settings --type spl --bsp-dir
+   software/spl_bsp --preloader-settings-dir {HANDOFF}
+   --settings software/spl_bsp/settings.bsp`, then `make -C software/spl_bsp`
+   (`preloader-mkpimage.bin`) and `make -C software/spl_bsp uboot`, and put
+   them on the SD card (`BRINGUP.md`, "The preloader and U-Boot", also for
+   mainline U-Boot). The HPS is set up as Terasic's DE1-SoC reference design
+   (SD card, Ethernet, USB, UART0 console, QSPI, SPI, I2C, GPIO on their HPS
+   pins; the board's 1 GB DDR3): a card made for that design (Terasic's
+   images) carries a preloader for the same HPS settings.
+6. Program the FPGA: over the USB-Blaster (the FPGA is the second device of the
    JTAG chain, after the HPS) `quartus_pgm -m jtag -o "p;{PROJECT}.sof@2"`, or
    from the board: the `.rbf` whose compression matches the MSEL switches
    (`python3 -m sw_hps --check` prints them; `{RBF}` for MSEL 00000 or 00100,
    `{RBF_COMPRESSED}` for 01010 and the other settings with compression), loaded
    by U-Boot (`fatload` + `fpga load`) or Linux's FPGA manager.
-6. Enable the lightweight HPS-to-FPGA bridge (U-Boot `bridge enable`, older
+7. Enable the lightweight HPS-to-FPGA bridge (U-Boot `bridge enable`, older
    U-Boot `run bridge_enable_handoff`, or from Linux), check with
    `python3 -m sw_hps --check`, then start the application as root:
 
        python3 -m sw_hps --model model.json --bus devmem --robot uart
 
-The commands of steps 5 and 6 for each U-Boot and kernel generation, the uio
+The commands of steps 5 to 7 for each U-Boot and kernel generation, the uio
 device and the service are in the bring-up guide: `docs/bring-up.md` in the
 repository, `BRINGUP.md` in the board bundle (`make hps-bundle` packs `sw_hps`
 with a model file).
 
-The HPS is set up as Terasic's DE1-SoC reference design (SD card, Ethernet,
-USB, UART0 console, QSPI, SPI, I2C, GPIO on their HPS pins; the board's 1 GB
-DDR3): build the preloader from the handoff qsys-generate writes
-(`hps_isw_handoff/`) and boot Linux from the SD card.
-
 ## Board functions
 
-KEY[0] reset, KEY[1] reconfigure the cameras, KEY[2] (held) pause, SW[0]
+KEY[0] reset, KEY[1] power-cycle and reconfigure the cameras, KEY[2] (held) pause, SW[0]
 capture, SW[9:7] VGA stage (0 right, 1 left, 2 disparity, 3 skin, 4 band,
 5 opening; {view}); LEDR[0]/[1] cameras configured, [2] configuration
 error, [3] FIFO-FULL, [4] gesture detected, [5] GO, [6] synchroniser fault,

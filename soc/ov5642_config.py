@@ -18,13 +18,16 @@ from amaranth.lib import data, enum, memory, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from sim.model.ov5642_config import (FAST_MODE, OV5642_POWER_UP_MS, POWER_UP_MS_RANGE,
+                                     RETRY_MS, SYNC_STAGES, I2cTiming, i2c_timing,
+                                     power_up_timing)
 from sim.model.validation import check_number
 
 __all__ = [
     "Ov5642Config", "RegisterWrite", "load_ov5642_table", "I2cTiming", "i2c_timing",
     "DEFAULT_TABLE", "OV5642_WRITE_ADDRESS", "ROW_BITS", "MAX_ROWS",
     "SCL_FREQ_RANGE", "CLK_FREQ_RANGE", "MAX_RETRIES_RANGE", "DELAY_MS_RANGE",
-    "FAST_MODE", "SYNC_STAGES",
+    "FAST_MODE", "SYNC_STAGES", "OV5642_POWER_UP_MS", "POWER_UP_MS_RANGE", "RETRY_MS",
 ]
 
 #: The vendored table (see ``data/ov5642/README.md``).
@@ -38,18 +41,6 @@ SCL_FREQ_RANGE = (0.0, 400e3)        # (exclusive, inclusive], Hz
 CLK_FREQ_RANGE = (1e6, 1e9)          # inclusive, Hz
 MAX_RETRIES_RANGE = (0, 255)
 DELAY_MS_RANGE = (0, 10_000)
-#: Two flip-flops re-time the line levels (the pins are asynchronous).
-SYNC_STAGES = 2
-
-#: Fast-mode minimum times in seconds (NXP UM10204 rev. 7, Table 10), plus the
-#: 300 ns hold the master adds after SCL falls so SDA never moves inside the
-#: falling edge's undefined region (same document, note 3 of Table 10).
-FAST_MODE = {
-    "t_low": 1.3e-6, "t_high": 0.6e-6, "t_hd_sta": 0.6e-6, "t_su_sta": 0.6e-6,
-    "t_su_sto": 0.6e-6, "t_buf": 1.3e-6, "t_su_dat": 100e-9, "t_hd_dat": 300e-9,
-}
-
-
 class RegisterWrite(NamedTuple):
     """One table row: write ``value`` to register ``address``, then wait ``delay_ms``."""
     address: int
@@ -150,50 +141,6 @@ def load_ov5642_table(path=None) -> list[RegisterWrite]:
     return rows
 
 
-class I2cTiming(NamedTuple):
-    """Clock-cycle counts of the bit timing (see :func:`i2c_timing`)."""
-    hold: int       #: SCL low -> SDA change (t_HD;DAT)
-    setup: int      #: SDA change -> SCL released (t_SU;DAT); t_LOW = hold + setup
-    high: int       #: SCL counted high (t_HIGH = high + SYNC_STAGES, more if stretched)
-    hd_sta: int     #: START -> SCL low (t_HD;STA)
-    buf: int        #: STOP -> next START (t_BUF)
-    period: int     #: cycles per SCL period: hold + setup + high + SYNC_STAGES
-
-
-def _cycles(seconds: float, clk_freq: float) -> int:
-    # the tolerance keeps 1.3 us * 50 MHz = 65.000000001 at 65 cycles
-    return max(1, math.ceil(seconds * clk_freq - 1e-6))
-
-
-def i2c_timing(clk_freq: float, scl_freq: float) -> I2cTiming:
-    """Cycle counts that meet the fast-mode minimum times and give an SCL
-    frequency of at most ``scl_freq`` (when SCL is not stretched).
-
-    Each minimum is rounded up to whole cycles; the cycles left over in a
-    period of ``ceil(clk_freq / scl_freq)`` go half to the low and half to the
-    high phase. Raises ``ValueError`` if the minimums do not fit in a period.
-    """
-    fm = FAST_MODE
-    period = math.ceil(clk_freq / scl_freq - 1e-6)
-    hold = _cycles(fm["t_hd_dat"], clk_freq)
-    low = max(_cycles(fm["t_low"], clk_freq), hold + _cycles(fm["t_su_dat"], clk_freq))
-    # the high count alone meets t_HIGH; the synchroniser cycles are margin
-    high = _cycles(max(fm["t_high"], fm["t_su_sto"]), clk_freq)
-    need = low + high + SYNC_STAGES
-    if need > period:
-        raise ValueError(
-            f"clk_freq={clk_freq:g} Hz is too low for scl_freq={scl_freq:g} Hz: an SCL period "
-            f"is {period} cycles but the fast-mode minimums (t_LOW 1.3 us, t_HIGH 0.6 us) and "
-            f"{SYNC_STAGES} synchroniser cycles need {need}; raise clk_freq or lower scl_freq")
-    spare = period - need
-    low += spare // 2
-    high += spare - spare // 2
-    hd_sta = max(high, _cycles(fm["t_hd_sta"], clk_freq))
-    buf = max(low, _cycles(fm["t_buf"], clk_freq))
-    return I2cTiming(hold=hold, setup=low - hold, high=high, hd_sta=hd_sta, buf=buf,
-                     period=low + high + SYNC_STAGES)
-
-
 class _Phase(enum.Enum, shape=2):
     START = 0   # SDA low, SCL high: t_HD;STA
     HOLD = 1    # SCL low, SDA unchanged: t_HD;DAT
@@ -208,45 +155,58 @@ class _Ending(enum.Enum, shape=2):
 
 
 class Ov5642Config(wiring.Component):
-    """I2C master that writes the OV5642 register table to one camera (thesis §5.1).
+    """Powers one OV5642 up and writes its register table over I2C (thesis §5.1).
 
-    Every table row is one I2C write transaction: START, control byte
-    ``device_address`` (0x78: 7-bit address 0x3C, write), register address
-    high byte, low byte, value, STOP, with the ACK checked after every byte.
-    A row with a delay (0x302b: 300 ms) is followed by that pause, counted in
-    clock cycles of ``clk_freq``; every other STOP is followed by the bus-free
-    time t_BUF. The table sits in a ROM (``lib.memory.Memory`` with ``init``,
-    so it maps to block RAM: 988 words of 25 bits = register address, value
-    and an index into the few distinct delays; Yosys' ``synth_intel_alm``
-    gives 3 M10K blocks, 183 LUTs, 95 flip-flops).
+    After reset, or on ``start``, the master runs the sensor's power-up
+    sequence (figures and their sources in
+    :data:`sim.model.ov5642_config.OV5642_POWER_UP_MS`): PWDN high and RESETB
+    low for ``pwdn_ms``, PWDN low for ``reset_ms``, RESETB high, then
+    ``settle_ms`` before the first write. Every table row is then one I2C
+    write transaction: START, control byte ``device_address`` (0x78: 7-bit
+    address 0x3C, write), register address high byte, low byte, value, STOP,
+    with the ACK checked after every byte. A row with a delay (0x302b: 300 ms)
+    is followed by that pause, counted in clock cycles of ``clk_freq``; every
+    other STOP is followed by the bus-free time t_BUF. The table sits in a ROM
+    (``lib.memory.Memory`` with ``init``, so it maps to block RAM: 988 words
+    of 25 bits = register address, value and an index into the few distinct
+    delays). The cycle counts come from :mod:`sim.model.ov5642_config`, whose
+    :func:`~sim.model.ov5642_config.first_row_schedule` is the specification
+    of the power-up and retry timing.
 
-    The FSM has three states:
+    The FSM has six states:
 
-    * ``IDLE``: bus released, waiting for a rising edge of ``start``.
+    * ``POWER_DOWN``, ``RESET``, ``SETTLE``: the power-up waits (PWDN and
+      RESETB as above, I2C bus released).
+    * ``IDLE``: bus released, waiting for a rising edge of ``start``; the
+      camera stays powered (after ``done`` or ``error``) or, before the first
+      start with ``auto_start=False``, held in power-down and reset.
     * ``WRITE``: the byte engine: START, the four bytes MSB first with an ACK
       slot each, STOP. It steps through bit phases (START hold, SCL-low hold,
       data setup, SCL high).
-    * ``WAIT``: the pause after a row (t_BUF or the row's delay); at its end
-      the next row is written, or the FSM goes to ``IDLE`` setting ``done`` or
-      ``error``.
+    * ``WAIT``: the pause after a row (t_BUF, the row's delay, or
+      ``retry_ms`` after a refused attempt); at its end the next attempt is
+      written, or the FSM goes to ``IDLE`` setting ``done`` or ``error``.
 
     Retry on NACK (the documented behaviour): when the ACK slot of any byte
     reads SDA high, the master sends STOP right after it (skipping the rest of
-    the row), waits t_BUF and writes the *same row* again from START. A row is
-    attempted at most ``1 + max_retries`` times in a row: if all those
+    the row), waits ``retry_ms`` and writes the *same row* again from START. A
+    row is attempted at most ``1 + max_retries`` times in a row: if all those
     attempts are NACKed, ``error`` goes to 1 and the FSM stops in ``IDLE`` (bus
     released; ``row`` shows the failing row) until the next ``start``. An
-    ACKed row resets the retry count. With the default ``max_retries=3`` the
-    fourth consecutive NACK on a row is fatal.
+    ACKed row resets the retry count. With the defaults (3 retries 20 ms
+    apart) a sensor that answers up to 60 ms later than the datasheet's 20 ms
+    is configured without an error.
 
     Start: with ``auto_start`` (the default) the sequence begins by itself
-    after reset (after t_BUF), so the cameras are configured at power-up; KEY
-    on the board drives ``start`` to configure them again. A rising edge of
-    ``start`` in ``IDLE`` (after ``done`` or ``error``) clears both and
-    restarts from row 0. A rising edge while busy is remembered: the current
-    transaction and its pause finish (up to 300 ms after 0x302b), then the
-    sequence restarts from row 0 with a fresh retry count. ``start`` passes a
-    two-flip-flop synchroniser, so it may come straight from a debounced key.
+    after reset, so the cameras are powered up and configured at power-up;
+    KEY[1] on the board drives ``start`` to power-cycle and configure them
+    again. A rising edge of ``start`` in ``IDLE`` (after ``done`` or
+    ``error``) clears both and begins the power-up sequence. A rising edge
+    while writing is remembered: the current transaction and its pause
+    finish (up to 300 ms after 0x302b), then the power-up sequence begins with
+    row 0 and a fresh retry count. A rising edge during the power-up waits
+    changes nothing (the sequence is already starting over). ``start`` passes
+    a two-flip-flop synchroniser, so it may come straight from a debounced key.
 
     Parameters
     ----------
@@ -267,11 +227,16 @@ class Ov5642Config(wiring.Component):
         Extra attempts of a NACKed row before giving up (see above).
     auto_start : bool
         Start the sequence after reset without a ``start`` edge.
+    pwdn_ms, reset_ms, settle_ms : float in [0, 1000]
+        The power-up waits (above), each rounded up to whole cycles (at least
+        one). Defaults: the datasheet minimums, 5, 1 and 20 ms.
+    retry_ms : float in [0, 1000]
+        STOP of a refused attempt to the next START (at least t_BUF). Default 20.
 
     Ports
     -----
     start : In(1)
-        A rising edge (re)starts the sequence from row 0.
+        A rising edge (re)starts the sequence: power-up, then row 0.
     done : Out(1)
         All rows written and ACKed (after the last row's pause); held until
         the next start.
@@ -283,6 +248,12 @@ class Ov5642Config(wiring.Component):
     row : Out(10)
         Row being written or waited after (0-based), for debug; after
         ``done`` the last row, after ``error`` the refused row.
+    pwdn : Out(1)
+        The camera's PWDN pin (1: power down); 1 from reset until the first
+        wait has passed.
+    reset_n : Out(1)
+        The camera's RESETB pin (0: reset); 0 from reset until the second wait
+        has passed.
     scl_oe, sda_oe : Out(1)
         Open-drain drives: 1 pulls the line low, 0 releases it (the board top
         drives 0 with these enables; pull-ups make the high level).
@@ -293,19 +264,21 @@ class Ov5642Config(wiring.Component):
         target holding SCL low (or a slow rising edge) lengthens the period. A
         target that holds SCL low for ever keeps the master waiting (no time-out).
 
-    ``done`` and ``error`` rise at the end of the last wait (t_BUF, or the
-    last row's delay) after the final STOP.
+    ``done`` and ``error`` rise at the end of the last wait (t_BUF, the last
+    row's delay, or ``retry_ms`` after the last refusal) after the final STOP.
 
     Timing (50 MHz, 400 kHz): period 125 cycles = 2.5 us (400 kHz with ideal
     edges; rise time and stretching only lengthen it); t_LOW = 79 cycles
     (1.58 us, SDA changes 15 cycles = 0.3 us after SCL falls), t_HIGH = 44 + 2
     cycles (0.92 us), t_HD;STA = 44 cycles, t_SU;STO = 46 cycles, t_BUF = 79
-    cycles. One row takes 4748 cycles (95 us); the 988 rows plus the 300 ms
-    pause take about 394 ms.
+    cycles. One row takes 4748 cycles (95 us); the power-up takes 26 ms, the
+    988 rows plus the 300 ms pause about 394 ms.
     """
 
     def __init__(self, clk_freq=50e6, scl_freq=400e3, table=None,
-                 device_address=OV5642_WRITE_ADDRESS, max_retries=3, auto_start=True):
+                 device_address=OV5642_WRITE_ADDRESS, max_retries=3, auto_start=True, *,
+                 pwdn_ms=OV5642_POWER_UP_MS["pwdn"], reset_ms=OV5642_POWER_UP_MS["reset"],
+                 settle_ms=OV5642_POWER_UP_MS["settle"], retry_ms=RETRY_MS):
         clk_freq = check_number("clk_freq", clk_freq, *CLK_FREQ_RANGE, unit="Hz")
         scl_freq = check_number("scl_freq", scl_freq, *SCL_FREQ_RANGE, unit="Hz", lo_open=True)
         if isinstance(device_address, bool) or not isinstance(device_address, numbers.Integral) \
@@ -318,8 +291,11 @@ class Ov5642Config(wiring.Component):
                              f"{MAX_RETRIES_RANGE[1]}], got {max_retries!r}")
         if not isinstance(auto_start, bool):
             raise ValueError(f"auto_start must be True or False, got {auto_start!r}")
-        rows = load_ov5642_table() if table is None else _check_table(table, "table")
         self.timing = i2c_timing(clk_freq, scl_freq)
+        self.power = power_up_timing(clk_freq, pwdn_ms=pwdn_ms, reset_ms=reset_ms,
+                                     settle_ms=settle_ms, retry_ms=retry_ms,
+                                     buf=self.timing.buf)
+        rows = load_ov5642_table() if table is None else _check_table(table, "table")
         self.clk_freq = clk_freq
         self.scl_freq = scl_freq
         self.table = rows
@@ -336,6 +312,8 @@ class Ov5642Config(wiring.Component):
             "error": Out(1),
             "busy": Out(1),
             "row": Out(ROW_BITS),
+            "pwdn": Out(1, init=1),
+            "reset_n": Out(1),
             "scl_oe": Out(1),
             "sda_oe": Out(1),
             "scl_i": In(1, init=1),
@@ -370,8 +348,11 @@ class Ov5642Config(wiring.Component):
         row = Signal(range(n_rows))
         m.d.comb += [rd.addr.eq(row), self.row.eq(row)]
 
-        wait_loads = [t.buf] + [max(t.buf, c) for c in self.delay_cycles]
-        timer = Signal(range(max(wait_loads + [t.hold, t.setup, t.high, t.hd_sta])))
+        power = self.power
+        wait_loads = [t.buf, power.retry] + [max(t.buf, c) for c in self.delay_cycles]
+        timer = Signal(range(max(wait_loads + [t.hold, t.setup, t.high, t.hd_sta, power.pwdn,
+                                               power.reset, power.settle])),
+                       init=power.pwdn - 1 if self.auto_start else 0)
         phase = Signal(_Phase)
         shifter = Signal(32)            # control byte, address high, low, value; MSB first
         bit = Signal(range(9))          # 8 = the ACK slot
@@ -387,8 +368,11 @@ class Ov5642Config(wiring.Component):
         sda_oe = Signal()
         done = Signal()
         error = Signal()
+        pwdn = Signal(init=1)
+        reset_n = Signal()
         m.d.comb += [self.scl_oe.eq(scl_oe), self.sda_oe.eq(sda_oe),
-                     self.done.eq(done), self.error.eq(error)]
+                     self.done.eq(done), self.error.eq(error),
+                     self.pwdn.eq(pwdn), self.reset_n.eq(reset_n)]
 
         with m.If(start_edge):
             m.d.sync += restart.eq(1)
@@ -397,12 +381,39 @@ class Ov5642Config(wiring.Component):
             m.d.sync += [sda_oe.eq(1), phase.eq(_Phase.START), timer.eq(t.hd_sta - 1)]
             m.next = "WRITE"
 
-        with m.FSM(init="WAIT" if self.auto_start else "IDLE") as fsm:
+        def power_up():
+            # the camera into power-down and reset, then the table from row 0
+            m.d.sync += [restart.eq(0), done.eq(0), error.eq(0), row.eq(0), retries.eq(0),
+                         ending.eq(_Ending.NEXT), pwdn.eq(1), reset_n.eq(0),
+                         timer.eq(power.pwdn - 1)]
+            m.next = "POWER_DOWN"
+
+        def power_wait(then, *actions):
+            with m.If(timer == 0):
+                m.d.sync += actions
+                then()
+            with m.Else():
+                m.d.sync += timer.eq(timer - 1)
+            # a start edge now would only begin the same sequence again
+            m.d.sync += restart.eq(0)
+
+        def goto(state, timer_load):
+            def then():
+                m.d.sync += timer.eq(timer_load - 1)
+                m.next = state
+            return then
+
+        with m.FSM(init="POWER_DOWN" if self.auto_start else "IDLE") as fsm:
+            with m.State("POWER_DOWN"):
+                power_wait(goto("RESET", power.reset), pwdn.eq(0))
+            with m.State("RESET"):
+                power_wait(goto("SETTLE", power.settle), reset_n.eq(1))
+            with m.State("SETTLE"):
+                power_wait(begin_write)
+
             with m.State("IDLE"):
                 with m.If(restart | start_edge):
-                    m.d.sync += [restart.eq(0), done.eq(0), error.eq(0), row.eq(0),
-                                 retries.eq(0), ending.eq(_Ending.NEXT), timer.eq(t.buf - 1)]
-                    m.next = "WAIT"
+                    power_up()
 
             with m.State("WRITE"):
                 with m.Switch(phase):
@@ -461,9 +472,7 @@ class Ov5642Config(wiring.Component):
                 with m.If(timer != 0):
                     m.d.sync += timer.eq(timer - 1)
                 with m.Elif(restart):
-                    m.d.sync += [restart.eq(0), done.eq(0), error.eq(0), row.eq(0),
-                                 retries.eq(0), ending.eq(_Ending.NEXT)]
-                    begin_write()
+                    power_up()
                 with m.Elif(ending == _Ending.DONE):
                     m.d.sync += done.eq(1)
                     m.next = "IDLE"
@@ -479,7 +488,7 @@ class Ov5642Config(wiring.Component):
     def _after_stop(self, m, t, entry, row, n_rows, retries, nacked, ending, timer):
         """Choose the pause and what follows it, in the cycle that sends STOP."""
         with m.If(nacked):
-            m.d.sync += timer.eq(t.buf - 1)
+            m.d.sync += timer.eq(self.power.retry - 1)
             with m.If(retries == self.max_retries):
                 m.d.sync += ending.eq(_Ending.ERROR)
             with m.Else():

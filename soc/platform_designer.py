@@ -38,7 +38,8 @@ from .hps_interface import LIGHTWEIGHT_BRIDGE_BASE, SLAVE_WINDOW
 __all__ = ["verilog_ports", "CoreInterface", "core_interfaces", "exported_port_name",
            "soc_system_ports", "hw_tcl", "system_tcl", "HPS_MEMORY_PORTS", "SYSTEM_NAME",
            "CORE_INSTANCE", "QSYS_VERSION", "DEVICE", "HPS_DDR3_PARAMETERS", "conduit_map",
-           "HPS_PERIPHERAL_PARAMETERS", "HPS_IO_PORTS", "H2F_RESET_PORT", "HPS_GPIOS"]
+           "HPS_PERIPHERAL_PARAMETERS", "HPS_IO_PORTS", "H2F_RESET_PORT", "HPS_GPIOS",
+           "SYSTEM_RESET_EDGES"]
 
 #: Name of the Platform Designer system (and of its Verilog module).
 SYSTEM_NAME = "soc_system"
@@ -48,6 +49,13 @@ CORE_INSTANCE = "stereogest_core_0"
 QSYS_VERSION = "16.1"
 #: The DE1-SoC's FPGA.
 DEVICE = "5CSEMA5F31C6"
+#: What the clock source ``clk_0`` declares of the system's exported reset: its
+#: source is the board top's asynchronous OR of KEY[0], the PLL's lock and the
+#: HPS's ``h2f_reset`` (:class:`soc.board_top.BoardTop`), in step with no clock,
+#: so ``NONE``, and Platform Designer synchronises it for every sink that needs
+#: synchronous edges (the core's reset declares ``BOTH``), as Terasic's DE1-SoC
+#: reference designs do.
+SYSTEM_RESET_EDGES = "NONE"
 #: Prefix of the system's exports of the core's conduits.
 EXPORT_PREFIX = "core_"
 #: Conduit of the core ports without a ``__`` group.
@@ -549,11 +557,14 @@ def system_tcl(core_ports, slave_bases: dict, *, clock_hz: float = SYNC_HZ,
         "set_project_property DEVICE_FAMILY {Cyclone V}",
         f"set_project_property DEVICE {_tcl_word(device)}",
         "",
-        "# the pipeline clock from the board top's PLL, and the FPGA-side reset",
+        "# the pipeline clock from the board top's PLL, and the FPGA-side reset: an",
+        "# asynchronous OR of KEY[0], the PLL's lock and the HPS's h2f_reset, so it is",
+        "# declared asynchronous and Platform Designer releases it through its own",
+        "# reset synchroniser in front of the interconnect and the core",
         "add_instance clk_0 clock_source",
         f"set_instance_parameter_value clk_0 clockFrequency {float(clock_hz):.1f}",
         "set_instance_parameter_value clk_0 clockFrequencyKnown 1",
-        "set_instance_parameter_value clk_0 resetSynchronousEdges DEASSERT",
+        f"set_instance_parameter_value clk_0 resetSynchronousEdges {SYSTEM_RESET_EDGES}",
         "",
         "# the HPS as the DE1-SoC reference design: its peripherals on their pins,",
         "# the board's DDR3, the lightweight bridge only",

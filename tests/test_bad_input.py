@@ -331,6 +331,10 @@ CASES = [
     *int_option_cases("generate", ["-o", f"{OUT}/b"], ["--vga-scale"]),
     case("generate", "-o", f"{OUT}/b", "--vga-scale", "4",
          match="--vga-scale must be in [1, 2], got 4"),
+    *[case("generate", "-o", f"{OUT}/b", "--scl-khz", value,
+           match=f"--scl-khz must be in (0, 400] kHz, got {shown}")
+      for value, shown in (("0", "0"), ("401", "401"), ("-5", "-5"), ("nan", "nan"))],
+    case("generate", "-o", f"{OUT}/b", "--scl-khz", "fast", match="--scl-khz"),
     case("generate", "-o", f"{IN}/afile", match="afile"),
     case("generate", match="-o/--output"),
     # ------------------------------------------------------------ chessboards, calibrate

@@ -226,6 +226,13 @@ def test_qsf_and_build_script_make_the_rbf_the_hps_loads(bundle, files, tmp_path
                          f"{gen.RBF_COMPRESSED}")
     assert calls.index("quartus_asm stereogest -c stereogest") < len(calls) - 1
     assert gen.RBF in done.stdout and gen.RBF_COMPRESSED in done.stdout
+    # the handoff the preloader is built from: Quartus writes it while compiling
+    assert f"warning: Quartus wrote no {gen.HANDOFF}" in done.stderr
+    (bin_dir / "quartus_fit").write_text(f'#!/bin/sh\nmkdir -p {gen.HANDOFF}\n')
+    done = subprocess.run(["sh", gen.BUILD_SCRIPT], cwd=work, capture_output=True, text=True,
+                          env={"PATH": f"{bin_dir}:/usr/bin:/bin"}, timeout=60)
+    assert done.returncode == 0 and "warning" not in done.stderr, done.stderr
+    assert f"the HPS handoff for the preloader and U-Boot: {gen.HANDOFF}" in done.stdout
 
     readme = files["README.md"]
     guide = (ROOT / "docs" / "bring-up.md").read_text()
@@ -455,7 +462,8 @@ def test_hw_tcl_ports_are_the_core_verilog_ports(files, core_ports):
         assert dict((port, w) for port, _, w in core_ports)[f"{slave}__address"] \
             == address_bits
     conduits = [i for i, (kind, _) in interfaces.items() if kind == "conduit"]
-    assert set(conduits) == {"board", "left", "right", "left_i2c", "right_i2c", "vga"}
+    assert set(conduits) == {"board", "left", "right", "left_i2c", "right_i2c",
+                             "left_power", "right_power", "vga"}
 
     module = {a[0]: a[1] for a in calls_of(calls, "set_module_property")}
     assert module["NAME"] == "stereogest_core"
@@ -573,6 +581,112 @@ def test_hps_io_reaches_its_pins_and_h2f_reset_the_reset_tree(files):
     for domain, ports in syncs:
         (net,) = re.findall(r"\.board_reset\(([^()]*)\)", ports)
         assert net.strip() in reached, domain
+
+
+def _top_body(files):
+    top = files["stereogest.v"]
+    return top[top.index("module stereogest("):top.index("endmodule")]
+
+
+def _instance_ports(body, name):
+    """Port -> net of the instance ``name`` in the top's body."""
+    inst = re.search(r"^\s*\S+\s+" + re.escape(name) + r"\s*\((.*?)\);", body, re.M | re.S)
+    return {port.strip(): net.strip()
+            for port, net in re.findall(r"\.(\\?\S+?)\s*\(([^()]*)\)", inst[1])}
+
+
+def test_system_reset_is_declared_as_the_top_drives_it(files):
+    """The system's reset input is an asynchronous OR (KEY[0], the PLL's lock,
+    the HPS's h2f_reset) with no register of the pipeline clock behind it, so
+    the clock source must declare its edges ``NONE``: Platform Designer then
+    synchronises it for the interconnect and the core. ``DEASSERT`` (the reset
+    already released in step with the clock) would add no synchroniser."""
+    from soc.platform_designer import SYSTEM_RESET_EDGES
+    calls = run_tcl(files[gen.SYSTEM_TCL], QSYS_SCRIPT)
+    params = {(a[0], a[1]): a[2] for a in calls_of(calls, "set_instance_parameter_value")}
+    assert params["clk_0", "resetSynchronousEdges"] == SYSTEM_RESET_EDGES == "NONE"
+
+    body = _top_body(files)
+    soc_ports = _instance_ports(body, "soc")
+    # the backward cone of the system's reset through the top's assignments
+    assigns = dict(re.findall(r"^\s*assign\s+(\S+)\s*=\s*(.*?);", body, re.M))
+    cone, todo = set(), [soc_ports["reset_reset_n"]]
+    while todo:
+        net = todo.pop()
+        if net in cone:
+            continue
+        cone.add(net)
+        if net in assigns:
+            todo += re.findall(r"\\?[\w$.]+", assigns[net])
+    registers = set(re.findall(r"^\s*reg\s+(?:\[[^\]]*\]\s*)?(\S+)", body, re.M))
+    assert not cone & registers, "a register in the system reset's path: not asynchronous"
+    # its sources: KEY[0]'s buffer, the PLL's lock, the HPS's h2f_reset, and
+    # no reset synchroniser's output
+    sources = {}
+    for inst in ("key0_buf", "pll"):
+        sources[inst] = set(_instance_ports(body, inst).values()) & cone
+    assert sources["key0_buf"] and sources["pll"], sources
+    assert soc_ports["h2f_reset_reset_n"] in cone
+    for domain in ("cam_left", "cam_right", "config", "vga", "xclk"):
+        synced = set(_instance_ports(body, f"{domain}_reset_sync").values())
+        assert not (synced - {"board_reset"}) & cone, domain
+
+
+def test_camera_power_pins_come_from_the_configuration_masters(files):
+    """PWDN and RESETB of each camera are the core's ``*_power`` conduit
+    (its configuration master's power-up sequence), not a reset of the top."""
+    body = _top_body(files)
+    soc_ports = _instance_ports(body, "soc")
+    for number, (side, _) in CAMERA_HEADERS.items():
+        for sig in ("pwdn", "reset_n"):
+            buf = _instance_ports(body, f"{side}_{sig}_buf")
+            assert buf[f"ov5642_{number}__{sig}__io"] == f"ov5642_{number}__{sig}__io"
+            (data,) = [net for port, net in buf.items() if not port.endswith("__io")]
+            assert data == soc_ports[f"core_{side}_power_{sig}"], (side, sig)
+
+
+def test_qsf_weak_pull_ups_only_on_lines_that_are_read(files, top_ports):
+    """The FPGA's weak pull-up on the I2C lines and the UART's input (they
+    must not float), on no output (it would do nothing there)."""
+    calls = run_tcl(files["stereogest.qsf"], QSF)
+    pulled = {a[a.index("-to") + 1] for a in calls_of(calls, "set_instance_assignment")
+              if a[a.index("-name") + 1].lower() == "weak_pull_up_resistor"
+              and a[a.index("-name") + 2] == "ON"}
+    assert pulled == {"ov5642_0__scl__io", "ov5642_0__sda__io", "ov5642_1__scl__io",
+                      "ov5642_1__sda__io", "uart_0__rx__io"}
+    directions = port_bits(top_ports)
+    assert all(directions[name] in ("input", "inout") for name in pulled)
+
+
+def test_readme_and_guide_give_the_steps_in_the_order_a_user_takes_them(files):
+    """Generate, compile (Quartus writes the HPS handoff then), build the
+    preloader and U-Boot from that handoff, then load the .rbf and release the
+    bridge; the handoff is not qsys-generate's."""
+    readme = files["README.md"]
+    steps = [(int(n), text) for n, text in
+             re.findall(r"^(\d+)\. (.*?)(?=^\d+\. |^## |\Z)", readme, re.M | re.S)]
+    assert [n for n, _ in steps] == list(range(1, len(steps) + 1))
+
+    def step_of(word):
+        found = [n for n, text in steps if word in text]
+        assert found, word
+        return found[0]
+    order = ["qsys-script", "qsys-generate", "quartus_map", "quartus_fit",
+             "bsp-create-settings", "fpga load", "bridge enable"]
+    assert [step_of(w) for w in order] == sorted(step_of(w) for w in order)
+    # the handoff first appears with the compilation, the preloader after it
+    assert step_of("quartus_fit") == step_of("hps_isw_handoff") \
+        < step_of("bsp-create-settings") < step_of("fpga load")
+    assert not re.search(r"handoff[^.]*qsys-generate writes", readme.replace("\n", " "))
+    assert "during compilation" in readme.replace("\n", " ")
+
+    guide = (ROOT / "docs" / "bring-up.md").read_text()
+    headings = [h for h in re.findall(r"^## (.*)$", guide, re.M)]
+    preloader = next(i for i, h in enumerate(headings) if "preloader" in h.lower())
+    program = headings.index("Program the FPGA")
+    assert preloader < program, headings
+    section = guide[guide.index("## " + headings[preloader]):guide.index("## Program the FPGA")]
+    assert "hps_isw_handoff" in section and "quartus_build.sh" in section
 
 
 def test_core_verilog_is_compact(files):
@@ -726,6 +840,8 @@ def test_refuses_a_foreign_directory(tmp_path):
     (dict(width=641), "width"), (dict(width=0), "width"), (dict(height=-4), "height"),
     (dict(width="640"), "width"), (dict(sync_hz=1e9), "sync_hz"),
     (dict(xclk_hz=50e6), "xclk_hz"), (dict(vga_hz=True), "vga_hz"),
+    (dict(scl_hz=0), r"scl_hz must be a number in \(0, 400000\] Hz"),
+    (dict(scl_hz=1e6), "scl_hz"),
 ])
 def test_bad_parameters_raise_and_write_nothing(tmp_path, kwargs, word):
     with pytest.raises(ValueError, match=word):
@@ -766,6 +882,9 @@ def test_cli_generate(tmp_path, capsys, fast_core):
     summary = json.loads(out.strip().splitlines()[-1])
     assert summary["out"] == str(tmp_path / "b")
     assert "stereogest.qsf" in summary["files"] and (tmp_path / "b" / "stereogest.qsf").exists()
+    marker = json.loads((tmp_path / "b" / gen.MARKER).read_text())
+    assert marker["scl_hz"] == 400e3
+    assert "SCL at most 400 kHz" in (tmp_path / "b" / "README.md").read_text()
     status, out, err = run(capsys, "generate", "--out", tmp_path / "c", "--width", "641")
     assert status == 2
     assert_one_line_error(err, "generate", "width")
@@ -826,6 +945,27 @@ def test_cli_generate_vga_scale_sets_the_frame_buffer(tmp_path, capsys, monkeypa
         readme = (out / "README.md").read_text()
         assert ("half resolution" in readme) == (scale == 2)
         assert ("full resolution" in readme) == (scale == 1)
+
+
+def test_cli_generate_scl_khz_reaches_both_configuration_masters(tmp_path, capsys,
+                                                                monkeypatch, files):
+    """--scl-khz 100: both cameras' I2C masters run at most 100 kHz (bit timing
+    from the model's i2c_timing at 50 MHz); the marker and README say so."""
+    import soc.core
+    from sim.model.ov5642_config import i2c_timing
+    cores = []
+
+    def emit(core):
+        cores.append(core)
+        return emitted(core, files[gen.CORE_FILE])
+    monkeypatch.setattr(soc.core, "emit_core_verilog", emit)
+    out = tmp_path / "slow"
+    status, _, err = run(capsys, "generate", "--out", out, "--quiet", "--scl-khz", "100")
+    assert status == 0, err
+    assert [c.timing for c in cores[-1].config] == [i2c_timing(50e6, 100e3)] * 2
+    assert cores[-1].config[0].timing.period == 500
+    assert json.loads((out / gen.MARKER).read_text())["scl_hz"] == 100e3
+    assert "SCL at most 100 kHz" in (out / "README.md").read_text()
 
 
 # ---- board, parser, top ---------------------------------------------------------------

@@ -1,11 +1,14 @@
 # amaranth: UnusedElaboratable=no
 """Ov5642Config (thesis §5.1): the register table loader, parameter checks, the
-emitted ports, and the cocotb testbench ``tests/cocotb/tb_ov5642_config.py``
-under Verilator with cocotbext-i2c's target on an open-drain bus model (all 988
-writes, the 300 ms pause, NACK retry and give-up, restart, fast-mode timing).
+emitted ports, the power-up and retry schedule against the model
+(``sim.model.ov5642_config``) in Amaranth's simulator, and the cocotb testbench
+``tests/cocotb/tb_ov5642_config.py`` under Verilator with cocotbext-i2c's
+target, powered as an OV5642, on an open-drain bus model (the power-up, all 988
+writes, the 300 ms pause, NACK retry and give-up, a slow sensor, a master
+without the power-up waits, restart, fast-mode timing).
 
 The whole-table runs print their measured timing with ``-s``; the run of the
-board configuration (50 MHz / 400 kHz, about 160 s) is opt-in:
+board configuration (50 MHz / 400 kHz, 35 s of wall time measured here) is opt-in:
 ``OV5642_FULL_50MHZ=1 pytest tests/test_soc_ov5642_config.py -k full_sequence -s``.
 """
 from __future__ import annotations
@@ -22,14 +25,15 @@ from amaranth.back import verilog
 from amaranth.sim import Simulator
 
 from verif.cocotb_run import run_cocotb
-from soc.ov5642_config import (DEFAULT_TABLE, Ov5642Config, i2c_timing, load_ov5642_table)
+from sim.model.ov5642_config import OV5642_POWER_UP_MS, first_row_schedule
+from soc.ov5642_config import (DEFAULT_TABLE, Ov5642Config, load_ov5642_table)
 
 TB_DIR = Path(__file__).resolve().parent / "cocotb"
 TB = "tb_ov5642_config"
 DUT = "ov5642_config"
 TOP = "ov5642_tb"
-PORTS = {"clk", "rst", "start", "done", "error", "busy", "row", "scl_oe", "sda_oe",
-         "scl_i", "sda_i"}
+PORTS = {"clk", "rst", "start", "done", "error", "busy", "row", "pwdn", "reset_n",
+         "scl_oe", "sda_oe", "scl_i", "sda_i"}
 SHARED_CSV = Path("/work/shared/data/ov5642/vga_yuv422_30fps.csv")
 
 #: Open-drain bus around the design: each line is the AND of the master's and
@@ -37,10 +41,11 @@ SHARED_CSV = Path("/work/shared/data/ov5642/vga_yuv422_30fps.csv")
 WRAPPER = f"""
 module {TOP}(input clk, input rst, input start, input t_scl_o, input t_sda_o,
              output scl, output sda, output done, output error, output busy,
-             output [9:0] row, output scl_oe, output sda_oe);
+             output [9:0] row, output scl_oe, output sda_oe, output pwdn,
+             output reset_n);
   {DUT} dut(.clk(clk), .rst(rst), .start(start), .scl_i(scl), .sda_i(sda),
             .scl_oe(scl_oe), .sda_oe(sda_oe), .done(done), .error(error),
-            .busy(busy), .row(row));
+            .busy(busy), .row(row), .pwdn(pwdn), .reset_n(reset_n));
   assign scl = ~scl_oe & t_scl_o;
   assign sda = ~sda_oe & t_sda_o;
 endmodule
@@ -58,16 +63,22 @@ SCALED_CLK = 5e6
 FULL_50MHZ = os.environ.get("OV5642_FULL_50MHZ") == "1"
 
 
+#: Power-up and retry waits of a master without them (one cycle each, retries
+#: t_BUF apart): the bus timing of the master before it had the power-up.
+NO_POWER_UP = (("pwdn_ms", 0), ("reset_ms", 0), ("settle_ms", 0), ("retry_ms", 0))
+
+
 @functools.cache
-def bench_verilog(clk_freq: float = 50e6) -> str:
-    return emit(Ov5642Config(clk_freq=clk_freq)) + WRAPPER
+def bench_verilog(clk_freq: float = 50e6, power=()) -> str:
+    return emit(Ov5642Config(clk_freq=clk_freq, **dict(power))) + WRAPPER
 
 
-def run_tb(testcase, tmp_path, clk_freq: float = 50e6):
+def run_tb(testcase, tmp_path, clk_freq: float = 50e6, power=()):
     report = tmp_path / "report.json"
-    run_cocotb(bench_verilog(clk_freq), TOP, TB, TB_DIR, testcase=testcase,
+    run_cocotb(bench_verilog(clk_freq, power), TOP, TB, TB_DIR, testcase=testcase,
                extra_env={"OV5642_REPORT": report, "OV5642_MAX_RETRIES": 3,
-                          "OV5642_CLK_NS": 1e9 / clk_freq})
+                          "OV5642_CLK_NS": 1e9 / clk_freq,
+                          "OV5642_POWER_MS": json.dumps(dict(power))})
     return json.loads(report.read_text()) if report.exists() else {}
 
 
@@ -124,6 +135,10 @@ def test_loader_accepts_decimal_and_extra_columns(tmp_path):
     ({"max_retries": -1}, r"max_retries must be an integer in \[0, 255\]"),
     ({"max_retries": 1.5}, r"max_retries must be an integer"),
     ({"auto_start": 1}, r"auto_start must be True or False"),
+    ({"pwdn_ms": -1}, r"pwdn_ms must be a number in \[0, 1000\] ms"),
+    ({"reset_ms": 1001}, r"reset_ms must be a number in \[0, 1000\] ms"),
+    ({"settle_ms": "20"}, r"settle_ms must be a number"),
+    ({"retry_ms": float("nan")}, r"retry_ms must be a number in \[0, 1000\] ms"),
     ({"table": []}, r"table: must hold 1 to 1024 rows, got 0"),
     ({"table": [(0x3103, 0x93, 0)] * 1025}, r"got 1025"),
     ({"table": [(0x3103, 0x93)]}, r"table: row 1: expected \(address, value, delay_ms\)"),
@@ -135,24 +150,12 @@ def test_parameter_validation(kwargs, match):
         Ov5642Config(**kwargs)
 
 
-def test_timing_counts_meet_fast_mode():
-    for clk in (4.001e6, 10e6, 27e6, 50e6, 100e6):
-        for scl in (100e3, 400e3):
-            t = i2c_timing(clk, scl)
-            cyc = 1 / clk
-            assert t.period >= clk / scl - 1e-6
-            assert (t.hold + t.setup) * cyc >= 1.3e-6 - 1e-12
-            assert t.high * cyc >= 0.6e-6 - 1e-12 and t.hd_sta * cyc >= 0.6e-6 - 1e-12
-            assert t.buf * cyc >= 1.3e-6 - 1e-12 and t.setup * cyc >= 100e-9 - 1e-12
-    t = i2c_timing(50e6, 400e3)
-    assert (t.hold, t.setup, t.high, t.hd_sta, t.buf, t.period) == (15, 64, 44, 44, 79, 125)
-
-
 def test_emitted_ports_and_rom():
     text = bench_verilog()
     header = re.search(rf"module {DUT}\((.*?)\);", text, re.S).group(1)
     assert {p.strip() for p in header.split(",")} == PORTS
     assert re.search(r"output \[9:0\] row;", text)
+    assert re.search(r"output pwdn;", text) and re.search(r"output reset_n;", text)
     # one 988-word ROM: 16-bit address, 8-bit value, 1-bit delay index
     assert re.search(r"reg \[24:0\] rom \[987:0\];", text)
     dut = Ov5642Config()
@@ -163,7 +166,8 @@ def test_emitted_ports_and_rom():
 
 def _small(**kw):
     return Ov5642Config(clk_freq=10e6, scl_freq=400e3,
-                        table=[(0x1234, 0x56, 0), (0x9abc, 0xde, 1)], **kw)
+                        table=[(0x1234, 0x56, 0), (0x9abc, 0xde, 1)],
+                        **{**dict(NO_POWER_UP), **kw})
 
 
 def test_auto_start_off_waits_for_start():
@@ -266,7 +270,7 @@ def _run_constant_sda(dut, sda_level, cycles):
 
 def test_one_row_table_with_delay_runs_to_done():
     """Smallest table: one START, done only after the row's 1 ms delay."""
-    dut = Ov5642Config(clk_freq=5e6, table=[(0x3008, 0x82, 1)])
+    dut = Ov5642Config(clk_freq=5e6, table=[(0x3008, 0x82, 1)], **dict(NO_POWER_UP))
     log = _run_constant_sda(dut, 0, 20_000)
     row_cycles = dut.timing.hd_sta + 37 * dut.timing.period
     assert log["starts"] == 1 and log["error_at"] is None and log["busy"] == 0
@@ -276,10 +280,107 @@ def test_one_row_table_with_delay_runs_to_done():
 @pytest.mark.parametrize("max_retries", [0, 1, 3])
 def test_attempts_before_error(max_retries):
     """Nobody answers: row 0 is attempted 1 + max_retries times, then error."""
-    dut = Ov5642Config(clk_freq=5e6, table=[(0x1234, 0x56, 0)] * 3, max_retries=max_retries)
+    dut = Ov5642Config(clk_freq=5e6, table=[(0x1234, 0x56, 0)] * 3, max_retries=max_retries,
+                       **dict(NO_POWER_UP))
     log = _run_constant_sda(dut, 1, 10_000)
     assert log["error_at"] is not None and log["done_at"] is None
     assert log["starts"] == 1 + max_retries and log["busy"] == 0 and log["row"] == 0
+
+
+def _run_sensor(dut, ready, cycles, *, start_at=None):
+    """Run ``dut`` against a sensor that ACKs every byte of an attempt whose
+    START comes at or after cycle ``ready`` and refuses earlier ones at their
+    address (SDA read high); SCL follows the master. Cycles count from reset,
+    or from the ``start`` edge at ``start_at`` (auto_start off). Returns the
+    first cycles of PWDN low and RESETB high, every START, and when ``error``
+    or ``done`` rose."""
+    log = {"pwdn_fall": None, "reset_rise": None, "starts": [], "error_at": None,
+           "done_at": None, "pwdn_before": [], "reset_n_before": []}
+
+    async def bench(ctx):
+        ctx.set(dut.sda_i, 1)
+        origin, prev_sda = 0, 0
+        for n in range(1, cycles + 1):
+            if start_at is not None and n == start_at:
+                ctx.set(dut.start, 1)
+            await ctx.tick()
+            if start_at is not None and n == start_at + 1:
+                ctx.set(dut.start, 0)
+            scl_oe, sda_oe = ctx.get(dut.scl_oe), ctx.get(dut.sda_oe)
+            ctx.set(dut.scl_i, not scl_oe)
+            if start_at is not None and origin == 0:
+                # the camera stays in power-down and reset until the master starts
+                log["pwdn_before"].append(ctx.get(dut.pwdn))
+                log["reset_n_before"].append(ctx.get(dut.reset_n))
+                if ctx.get(dut.busy):
+                    origin = n
+                continue
+            t = n - origin
+            if log["pwdn_fall"] is None and not ctx.get(dut.pwdn):
+                log["pwdn_fall"] = t
+            if log["reset_rise"] is None and ctx.get(dut.reset_n):
+                log["reset_rise"] = t
+            if sda_oe and not prev_sda and not scl_oe:
+                log["starts"].append(t)
+                ctx.set(dut.sda_i, 0 if t >= ready else 1)
+            prev_sda = sda_oe
+            for key, port in (("error_at", dut.error), ("done_at", dut.done)):
+                if log[key] is None and ctx.get(port):
+                    log[key] = t
+            if log["error_at"] or log["done_at"]:
+                break
+
+    sim = Simulator(dut)
+    sim.add_clock(1 / dut.clk_freq)
+    sim.add_testbench(bench)
+    sim.run()
+    return log
+
+
+#: Short power-up waits at 5 MHz (50, 100, 150 cycles; retries 200 apart).
+SHORT_POWER = dict(pwdn_ms=0.01, reset_ms=0.02, settle_ms=0.03, retry_ms=0.04)
+
+
+@pytest.mark.parametrize("ready, accepted", [(0, 0), (400, 1), (900, 2), (10**9, None)])
+def test_power_up_and_retries_follow_the_model(ready, accepted):
+    """PWDN, RESETB, every START of row 0 and the error come on the cycles of
+    ``first_row_schedule``, for a sensor ready at once, after one or two
+    refusals, and never."""
+    dut = Ov5642Config(clk_freq=5e6, table=[(0x1234, 0x56, 0)], max_retries=2, **SHORT_POWER)
+    want = first_row_schedule(dut.timing, dut.power, max_retries=2, ready=ready)
+    assert want.accepted == accepted
+    log = _run_sensor(dut, ready, 5_000)
+    assert (log["pwdn_fall"], log["reset_rise"]) == (want.pwdn_fall, want.reset_rise)
+    assert tuple(log["starts"]) == want.starts
+    assert log["error_at"] == want.error_at
+    assert (log["done_at"] is None) == (accepted is None)
+
+
+def test_start_powers_the_camera_up_from_idle():
+    """auto_start off: the camera stays in power-down and reset until a start
+    edge, then the power-up follows the model from the edge."""
+    dut = Ov5642Config(clk_freq=5e6, table=[(0x1234, 0x56, 0)], auto_start=False,
+                       **SHORT_POWER)
+    want = first_row_schedule(dut.timing, dut.power, max_retries=3, ready=0)
+    log = _run_sensor(dut, 0, 3_000, start_at=100)
+    assert log["pwdn_before"] and set(log["pwdn_before"]) == {1}
+    assert set(log["reset_n_before"]) == {0}
+    assert (log["pwdn_fall"], log["reset_rise"]) == (want.pwdn_fall, want.reset_rise)
+    assert tuple(log["starts"]) == want.starts and log["done_at"]
+
+
+def test_default_power_up_meets_the_datasheet_minimums():
+    """At the board's 50 MHz the defaults wait at least the datasheet's
+    minimums, and a sensor 3x slower than the datasheet still gets configured."""
+    dut = Ov5642Config()
+    ms = {k: v * 1000 / 50e6 for k, v in dut.power._asdict().items()}
+    assert ms["pwdn"] >= OV5642_POWER_UP_MS["pwdn"]
+    assert ms["reset"] >= OV5642_POWER_UP_MS["reset"]
+    assert ms["settle"] >= OV5642_POWER_UP_MS["settle"]
+    reset_rise = dut.power.pwdn + dut.power.reset
+    slow = first_row_schedule(dut.timing, dut.power, max_retries=dut.max_retries,
+                              ready=reset_rise + 3 * round(OV5642_POWER_UP_MS["settle"] * 50e3))
+    assert slow.accepted == 2
 
 
 # --------------------------------------------------------------------------- cocotb
@@ -299,11 +400,12 @@ def test_sequence_with_nack_retry_cocotb(tmp_path):
     assert rep["f_scl_khz"] <= 400.0 + 1e-6 and rep["pause_ms"] >= 300.0
 
 
-@pytest.mark.skipif(not FULL_50MHZ, reason="about 160 s of simulation (15 M clock cycles "
-                    "of pause); set OV5642_FULL_50MHZ=1")
+@pytest.mark.skipif(not FULL_50MHZ, reason="21 M clock cycles of simulation (35 s here); "
+                    "set OV5642_FULL_50MHZ=1")
 def test_full_sequence_50mhz_cocotb(tmp_path):
-    """The board configuration, 50 MHz / 400 kHz: all 988 writes in order,
-    done=1, the 300 ms pause after 0x302b, fast-mode timing; no NACK."""
+    """The board configuration, 50 MHz / 400 kHz: the power-up as the model
+    says, all 988 writes in order, done=1, the 300 ms pause after 0x302b,
+    fast-mode timing; no NACK."""
     rep = run_tb("test_full_sequence", tmp_path)["full_sequence"]
     _show("Ov5642Config 50 MHz / 400 kHz", rep)
     assert rep["f_scl_khz"] <= 400.0 + 1e-6 and rep["pause_ms"] >= 300.0
@@ -314,6 +416,24 @@ def test_never_ack_and_restart_cocotb(tmp_path):
     start edge runs them again; a start edge mid-sequence restarts at row 0
     after the current row (fast-mode timing checked on both waveforms)."""
     run_tb(["test_never_ack", "test_restart_while_busy"], tmp_path)
+
+
+def test_slow_sensor_cocotb(tmp_path):
+    """A sensor that needs 45 ms after RESETB (5 MHz / 400 kHz): refused
+    attempts, retries 20 ms apart, accepted where the model says; the power-up
+    edges as the model says."""
+    rep = run_tb("test_slow_sensor", tmp_path, SCALED_CLK)["slow_sensor"]
+    _show("Ov5642Config 5 MHz, sensor settling 45 ms", rep)
+    assert rep["refused"] == 2 and rep["settle_ms"] >= 20.0
+
+
+def test_early_writes_refused_cocotb(tmp_path):
+    """The master without its power-up waits meets the datasheet's sensor:
+    every attempt refused, error (the sensor model does refuse early writes)."""
+    rep = run_tb("test_early_writes_refused", tmp_path, SCALED_CLK,
+                 NO_POWER_UP)["early_writes"]
+    _show("Ov5642Config 5 MHz without power-up waits", rep)
+    assert rep["attempts"] == 4
 
 
 def test_timing_checker_catches_violations():

@@ -96,11 +96,25 @@ def test_vga_frame_at_full_resolution_equals_the_golden_model():
 
 
 def test_leds_show_go_and_the_unanswered_configuration(system_run):
+    """GO; no camera configured (no I2C target here); the configuration error
+    (LEDR[2]) lit exactly when the simulated time has passed the moment the
+    model's schedule gives up on a target that never answers (the power-up,
+    then every attempt of row 0)."""
+    from sim.model.ov5642_config import first_row_schedule
+    from soc.ov5642_config import Ov5642Config
+    from verif.clocks import Clocks
     result, _, _, _ = system_run
     leds = result.leds
     assert leds & (1 << 5), "GO set by the application"
-    assert leds & (1 << 2), "no I2C target in this simulation: configuration error"
     assert not leds & 0b11
+    master = Ov5642Config(clk_freq=1e12 / Clocks().config_ps)
+    gave_up = first_row_schedule(master.timing, master.power, max_retries=master.max_retries,
+                                 ready=1 << 62).error_at
+    simulated_ps = result.stats["vga_cycles"] * Clocks().vga_ps
+    gave_up_ps = gave_up * Clocks().config_ps
+    assert abs(simulated_ps - gave_up_ps) > 1e9, "too close to tell (1 ms)"
+    assert bool(leds & (1 << 2)) == (simulated_ps > gave_up_ps), \
+        (simulated_ps / 1e9, gave_up_ps / 1e9, f"{leds:010b}")
 
 
 def test_hold_still_ends_the_flag(system_run):

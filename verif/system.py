@@ -9,9 +9,11 @@ that into the :class:`sw_hps.bus.Bus` protocol, so the unmodified
 and :class:`~sw_hps.robot.UartLink` drives the simulated hardware exactly as it
 drives the board through ``/dev/mem``; its sleeps advance simulated time.
 
-The cameras' I2C lines have no target in this simulation: the configuration
-masters meet NACKs and end with their error output (LEDR[2]); the camera
-waveforms stand for configured cameras.
+The cameras' I2C lines have no target in this simulation: after their power-up
+the configuration masters meet NACKs and end with their error output (LEDR[2],
+106 ms of simulated time after reset); the camera waveforms stand for
+configured cameras. The cameras' PWDN and RESETB (``*_power``) are outputs of
+the wrapper nobody reads.
 """
 from __future__ import annotations
 

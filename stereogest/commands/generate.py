@@ -7,7 +7,8 @@ flow script and a README with the steps. DIR must be new, empty, or a bundle
 written before (it is replaced as a whole). Quartus itself is not needed. With
 --calibration the pipeline rectifies both cameras with its maps; with
 --hand-tracking its centroid tracks the hand; --vga-scale sets the VGA debug
-view's resolution."""
+view's resolution; --scl-khz lowers the cameras' I2C clock (for camera modules
+without their own pull-ups)."""
 from __future__ import annotations
 
 import json
@@ -29,6 +30,9 @@ def add_arguments(p):
     add_calibration_options(p)
     add_hand_tracking_option(p)
     add_vga_scale_option(p)
+    p.add_argument("--scl-khz", type=float, default=400.0, metavar="KHZ",
+                   help="highest SCL frequency of the cameras' I2C, in (0, 400] kHz "
+                        "(default 400, fast mode; 100 for modules without pull-ups)")
     add_json_switch(p, always=True)
 
 
@@ -37,6 +41,8 @@ def run(args) -> int:
     from stereogest.commands import check_output_dir, load_rectification, vga_scale_of
 
     vga_scale = vga_scale_of(args)
+    if not 0 < args.scl_khz <= 400:
+        raise ValueError(f"--scl-khz must be in (0, 400] kHz, got {args.scl_khz:g}")
     check_out_dir(args.out_dir)
     check_output_dir(args.out_dir)
     rectification = load_rectification(args, args.width, args.height)
@@ -47,7 +53,7 @@ def run(args) -> int:
 
     info = generate(args.out_dir, args.width, args.height, rectification=rectification,
                     hand_tracking=args.hand_tracking, vga_scale=vga_scale,
-                    progress=progress)
+                    scl_hz=args.scl_khz * 1e3, progress=progress)
     print(f"wrote {len(info.files)} files to {info.out_dir} in {info.seconds:.1f} s; "
           f"next: see {info.out_dir}/README.md (or run quartus_build.sh there)")
     print(json.dumps({"out": str(info.out_dir), "files": list(info.files),
