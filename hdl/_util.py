@@ -10,7 +10,7 @@ from sim.model.validation import check_int, check_odd_window
 
 __all__ = ["check_int", "check_odd_window", "check_geometry", "check_domain", "delay", "replicate",
            "register_input", "times_constant",
-           "KEEP_REGISTER",
+           "KEEP_REGISTER", "NO_RW_COLLISION",
            "bits_for", "WIDTH_RANGE", "HEIGHT_RANGE", "PIXEL_BITS_RANGE"]
 
 WIDTH_RANGE = (8, 4096)
@@ -53,6 +53,14 @@ def delay(m, value, cycles: int, name: str = "dly", *, reset_less: bool = False)
 #: yosys' ``keep`` (hdl.place_route carries it from the wire to the flip-flop),
 #: Quartus' ``preserve``.
 KEEP_REGISTER = {"keep": 1, "preserve": 1}
+
+#: Attributes of a memory whose read port never reads a word in the cycle the
+#: write port writes it (or discards such a read): yosys' ``no_rw_check``. Without
+#: it yosys keeps the read-old-data semantics of a collision on the ECP5's
+#: block RAM with a bypass multiplexer behind the read port (a LUT and two
+#: registers), logic between the block and the register that should follow it
+#: (routed: a block's output through that LUT was the limit of the pipeline).
+NO_RW_COLLISION = {"no_rw_check": 1}
 
 
 def replicate(m, value, copies: int, name: str = "rep", init: int = 0, *,

@@ -28,8 +28,8 @@ from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import (KEEP_REGISTER, bits_for, check_geometry, check_int, check_odd_window, delay,
-                    replicate)
+from ._util import (KEEP_REGISTER, NO_RW_COLLISION, bits_for, check_geometry, check_int,
+                    check_odd_window, delay, replicate)
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -187,8 +187,11 @@ class ColumnSum(wiring.Component):
         # address x, read every cycle, registered, added to and written back;
         # the address is the group's own copy of x (its beat, its first).
         for g, ds in enumerate(spans):
+            # (a word is written three cycles after its beat's read and read
+            # again a row later; a read of it in between is an idle cycle's,
+            # discarded)
             m.submodules[f"mem_{g}"] = mem = memory.Memory(shape=cb * len(ds), depth=w,
-                                                           init=[])
+                                                           init=[], attrs=NO_RW_COLLISION)
             rd = mem.read_port()
             wr = mem.write_port()
             addr = pos.registered(lambda x, y: x, f"addr_{g}", range(w),

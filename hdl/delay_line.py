@@ -8,10 +8,10 @@ delaying the early one ``beats`` beats (the look-ahead of the late stream's
 windows) and then ``cycles`` clock cycles (its pipeline registers).
 
 Short lines are beat-gated shift registers. Long ones (``beats`` >=
-:data:`MEMORY_MIN_BEATS`) are a :class:`~hdl.row_buffer.RowBuffer` of
-``beats - 1`` words: its synchronous read port holds the word read on the
-previous beat, which is exactly ``beats`` beats old in the cycle of the current
-beat, so the memory adds no clock cycle.
+:data:`MEMORY_MIN_BEATS`) are a :class:`~hdl.row_buffer.RowBuffer` of ``beats``
+words, whose word is ``beats`` beats old :attr:`RowBuffer.cycles` clock cycles
+after the beat: those cycles are taken from ``cycles``, which must be at least
+that long.
 """
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ __all__ = ["BeatDelay", "MEMORY_MIN_BEATS", "delay_memory_bits"]
 #: From this many beats on, the line is a memory instead of registers.
 MEMORY_MIN_BEATS = 32
 BITS_RANGE = (1, 1024)
-BEATS_RANGE = (0, 65537)  # RowBuffer lengths up to 65536
+BEATS_RANGE = (0, 65536)  # RowBuffer lengths up to 65536
 CYCLES_RANGE = (0, 4096)
 
 
@@ -43,7 +43,7 @@ def delay_memory_bits(bits: int, beats: int) -> int:
     if beats < MEMORY_MIN_BEATS:
         return 0
     lanes, lane_bits = _lanes(bits)
-    return (beats - 1) * lanes * lane_bits
+    return beats * lanes * lane_bits
 
 
 class BeatDelay(wiring.Component):
@@ -53,11 +53,13 @@ class BeatDelay(wiring.Component):
     ----------
     bits : int in [1, 1024]
         Width of the value.
-    beats : int in [0, 65537]
+    beats : int in [0, 65536]
         Beats of delay (0: none). Registers below :data:`MEMORY_MIN_BEATS`
-        (32) beats, a memory of ``beats - 1`` words from there on.
+        (32) beats, a memory of ``beats`` words from there on.
     cycles : int in [0, 4096]
-        Free-running clock cycles after the beat delay.
+        Free-running clock cycles after the beat delay; with a memory at least
+        :attr:`RowBuffer.cycles <hdl.row_buffer.RowBuffer.cycles>` (2), the
+        memory's read and its register.
 
     Ports
     -----
@@ -81,6 +83,10 @@ class BeatDelay(wiring.Component):
         self.cycles = check_int("cycles", cycles, *CYCLES_RANGE)
         self.lag = self.beats
         self.uses_memory = self.beats >= MEMORY_MIN_BEATS
+        if self.uses_memory and self.cycles < RowBuffer.cycles:
+            raise ValueError(f"cycles must be at least {RowBuffer.cycles} for beats >= "
+                             f"{MEMORY_MIN_BEATS} (the memory's read and its register), "
+                             f"got {self.cycles}")
         self.memory_bits = delay_memory_bits(bits=self.bits, beats=self.beats)
         layout = data.StructLayout({"data": self.bits})
         super().__init__({
@@ -92,15 +98,17 @@ class BeatDelay(wiring.Component):
         m = Module()
         beat = self.i_stream.valid
         value = self.i_stream.payload.data
+        cycles = self.cycles
         if self.uses_memory:
             lanes, lb = _lanes(self.bits)
-            m.submodules.line = buf = RowBuffer(length=self.beats - 1, lanes=lanes, pixel_bits=lb)
-            # RowBuffer samples its input the cycle after the beat.
-            held = delay(m, value, 1, "wdata")
+            m.submodules.line = buf = RowBuffer(length=self.beats, lanes=lanes, pixel_bits=lb)
+            # RowBuffer samples its input when its output is valid
+            held = delay(m, value, RowBuffer.cycles, "wdata")
             m.d.comb += buf.beat.eq(beat)
             for lane in range(lanes):
                 m.d.comb += buf.i_data[lane].eq(held[lane * lb:(lane + 1) * lb])
             beat_delayed = buf.o_data.as_value()[:self.bits]
+            cycles -= RowBuffer.cycles
         else:
             beat_delayed = value
             for k in range(self.beats):
@@ -109,7 +117,7 @@ class BeatDelay(wiring.Component):
                     m.d.sync += reg.eq(beat_delayed)
                 beat_delayed = reg
         m.d.comb += [
-            self.o_stream.payload.data.eq(delay(m, beat_delayed, self.cycles, "pipe")),
+            self.o_stream.payload.data.eq(delay(m, beat_delayed, cycles, "pipe")),
             self.o_stream.valid.eq(delay(m, beat, self.cycles, "valid")),
         ]
         return m

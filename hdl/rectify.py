@@ -31,8 +31,8 @@ from amaranth.lib.wiring import In, Out
 
 from sim.model.rectify import INTERPOLATIONS, RectifyGrid
 
-from ._util import (bits_for, check_geometry, check_int, delay, register_input, replicate,
-                    times_constant)
+from ._util import (NO_RW_COLLISION, bits_for, check_geometry, check_int, delay,
+                    register_input, replicate, times_constant)
 from .raster_position import OVERRUN_ROWS, RasterPosition
 from .stage import StageTiming
 
@@ -239,7 +239,8 @@ class Rectifier(wiring.Component):
         ahead = RasterPosition(w, h, self.lag - w, "next").attach(m, beat_ahead, p.first)
 
         # --- ring buffer: four banks by (row parity, column parity) ---------------------
-        # written two cycles after the beat (the address is a product and a sum)
+        # written three cycles after the beat (the address is a product and a sum),
+        # every write port fed from registers
         slot_bits = bits_for(rows - 1)
         slot_in = Signal(slot_bits)                   # input row mod rows
         slot_in_cur = Mux(p.first, 0, slot_in)
@@ -264,6 +265,8 @@ class Rectifier(wiring.Component):
         chunk_bits = min(depth_bits, CHUNK_WORDS.bit_length() - 1)
         chunks = -(-depth >> chunk_bits)
         w_addr_2 = (w_row_2 + w_col_2)[:depth_bits]
+        w_addr_3 = reg(w_addr_2[:chunk_bits], "waddr3")
+        w_data_3 = reg(w_data_2, "wdata3")
         read_addr = [Signal(depth_bits, name=f"raddr_{b}") for b in range(4)]
         banks = []
         for b in range(4):
@@ -275,13 +278,17 @@ class Rectifier(wiring.Component):
                 lane_bits = 8 if split else 8 * self.lanes
                 lane_data = []
                 for lane in range(self.lanes if split else 1):
-                    chunk = memory.Memory(shape=lane_bits, depth=size, init=[])
+                    # (the output reads rows written at least a beat and a dozen
+                    # cycles before; the write goes to the newest row)
+                    chunk = memory.Memory(shape=lane_bits, depth=size, init=[],
+                                          attrs=NO_RW_COLLISION)
                     m.submodules[f"{name}_lane{lane}" if split else name] = chunk
                     wr = chunk.write_port()
-                    m.d.comb += [wr.addr.eq(w_addr_2[:chunk_bits]),
-                                 wr.data.eq(w_data_2[lane * lane_bits:(lane + 1) * lane_bits]),
-                                 wr.en.eq(w_en_2 & (w_bank_2 == b)
-                                          & (w_addr_2[chunk_bits:] == c))]
+                    m.d.comb += [wr.addr.eq(w_addr_3),
+                                 wr.data.eq(w_data_3[lane * lane_bits:(lane + 1) * lane_bits]),
+                                 wr.en.eq(reg(w_en_2 & (w_bank_2 == b)
+                                              & (w_addr_2[chunk_bits:] == c),
+                                              f"wen3_{name}_{lane}"))]
                     rd = chunk.read_port(transparent_for=())
                     m.d.comb += rd.addr.eq(read_addr[b][:chunk_bits])
                     lane_data.append(rd.data)
@@ -330,11 +337,15 @@ class Rectifier(wiring.Component):
         lines = []
         col_bits = self.line_col_bits
         for odd in (0, 1):
-            line = memory.Memory(shape=line_shape, depth=2 << col_bits, init=[])
+            # (written a row ahead: the other half, by the row's parity, is read)
+            line = memory.Memory(shape=line_shape, depth=2 << col_bits, init=[],
+                                 attrs=NO_RW_COLLISION)
             m.submodules[f"line_{'odd' if odd else 'even'}"] = line
             wr = line.write_port()
-            m.d.comb += [wr.addr.eq(Cat(k_6[1:1 + col_bits], parity_6)),
-                         wr.data.eq(v_new), wr.en.eq(ok_6 & (k_6[0] == odd))]
+            # (from registers: the address, the word, the enable a cycle later)
+            m.d.comb += [wr.addr.eq(reg(Cat(k_6[1:1 + col_bits], parity_6), f"laddr_{odd}")),
+                         wr.data.eq(reg(v_new.as_value(), f"lword_{odd}")),
+                         wr.en.eq(reg(ok_6 & (k_6[0] == odd), f"len_{odd}"))]
             lines.append(line.read_port(transparent_for=()))
 
         # --- per output pixel, one register stage after another (18 in all) -----------

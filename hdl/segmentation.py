@@ -18,7 +18,9 @@ from sim.model.segmentation import check_band
 from sim.model.validation import check_byte_range
 
 from ._util import bits_for, check_geometry, check_int, delay
-from .delay_line import BEATS_RANGE, CYCLES_RANGE, BeatDelay, delay_memory_bits
+from .delay_line import BEATS_RANGE, CYCLES_RANGE, MEMORY_MIN_BEATS, BeatDelay, \
+    delay_memory_bits
+from .row_buffer import RowBuffer
 
 __all__ = ["HandSegmentation", "segmentation_memory_bits"]
 
@@ -45,7 +47,7 @@ class HandSegmentation(wiring.Component):
         Exclusive lower disparity threshold TL (thesis 33).
     band_high : int in [band_low + 1, D - 1] or None
         Exclusive upper threshold TH; None means D - 2 (thesis 46).
-    skin_delay_beats : int in [0, 65537]
+    skin_delay_beats : int in [0, 65536]
         Beats between a chroma beat and the disparity beat of the same pixel.
     skin_delay_cycles : int in [0, 4096]
         Clock cycles between beat t of ``i_chroma`` and beat t of
@@ -89,6 +91,12 @@ class HandSegmentation(wiring.Component):
         self.skin_delay_cycles = check_int("skin_delay_cycles", skin_delay_cycles,
                                            *CYCLES_RANGE)
         self.skin_stages = min(1, self.skin_delay_cycles)
+        line_cycles = RowBuffer.cycles if self.skin_delay_beats >= MEMORY_MIN_BEATS else 0
+        if self.skin_delay_cycles - self.skin_stages < line_cycles:
+            raise ValueError(f"skin_delay_cycles must be at least {line_cycles + 1} for "
+                             f"skin_delay_beats >= {MEMORY_MIN_BEATS} (the delay line's "
+                             f"memory read and register, the comparators' register), got "
+                             f"{self.skin_delay_cycles}")
         self.disparity_bits = bits_for(self.max_disparity - 1)
         self.memory_bits = segmentation_memory_bits(skin_delay_beats=self.skin_delay_beats)
         super().__init__({

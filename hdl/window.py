@@ -118,16 +118,18 @@ class WindowGenerator(wiring.Component):
         shift = {k: [shift_row[k][s * pb:(s + 1) * pb] for s in range(win)] for k in used}
         short = [k for k in range(1, self.buffer_rows + 1) if k - 1 in used]
         long_ = [k for k in range(1, self.buffer_rows + 1) if k - 1 not in used]
-        # the cycle after the beat, once per group of window rows (a single
-        # copy's net spans every shift register of a census window)
+        # the cycle the row buffers' words are valid, once per group of window
+        # rows (a single copy's net spans every shift register of a census window)
         rows_per_copy = max(1, self.SHIFT_BITS_PER_BEAT // (win * pb))
-        col_valid = replicate(m, beat, -(-len(used) // rows_per_copy), "col_valid")
-        column = {0: delay(m, self.i_stream.payload.pixel, 1, "col", reset_less=True)}
+        col_valid = replicate(m, delay(m, beat, RowBuffer.cycles - 1, "beat_late"),
+                              -(-len(used) // rows_per_copy), "col_valid")
+        column = {0: delay(m, self.i_stream.payload.pixel, RowBuffer.cycles, "col",
+                           reset_less=True)}
         lines = []
         for name, rows, length in (("short", short, w - win), ("long", long_, w)):
             if not rows:
                 continue
-            # read every cycle: the lines are sampled only in the cycle after a beat
+            # read every cycle: the lines are sampled only when their words are valid
             rb = RowBuffer(length=length, lanes=len(rows), pixel_bits=pb, hold_output=False)
             m.submodules[f"rows_{name}"] = rb
             m.d.comb += rb.beat.eq(beat)
@@ -136,7 +138,7 @@ class WindowGenerator(wiring.Component):
             lines.append((rb, rows))
         for rb, rows in lines:
             for lane, k in enumerate(rows):
-                # sampled the cycle after the beat: the row below as it leaves its
+                # sampled with the lines' words: the row below as it leaves its
                 # window register (before this beat's shift) or its delay line
                 src = shift[k - 1][win - 1] if k - 1 in used else column[k - 1]
                 m.d.comb += rb.i_data[lane].eq(src)

@@ -15,8 +15,8 @@ from amaranth.hdl import Cat, Module, Mux, Signal, signed
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import (KEEP_REGISTER, bits_for, check_geometry, check_int, check_odd_window,
-                    delay, replicate)
+from ._util import (KEEP_REGISTER, NO_RW_COLLISION, bits_for, check_geometry, check_int,
+                    check_odd_window, delay, replicate)
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -158,7 +158,9 @@ class WindowSum(wiring.Component):
             raddrs = replicate(m, read_next, copies, "raddr", init=(2 - wh) % depth)
             ring_outs = []
             for g, (lo, hi) in enumerate(spans):
-                ring = memory.Memory(shape=(hi - lo) * tb, depth=depth, init=[])
+                # (read Wh - 2 >= 1 words behind the write)
+                ring = memory.Memory(shape=(hi - lo) * tb, depth=depth, init=[],
+                                     attrs=NO_RW_COLLISION)
                 m.submodules[f"ring_{g}"] = ring
                 wr, rd = ring.write_port(), ring.read_port()
                 m.d.comb += [wr.addr.eq(waddrs[g]), wr.data.eq(csums[g]),

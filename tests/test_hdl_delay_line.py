@@ -26,14 +26,14 @@ class _Clocked(Elaboratable):
 
 @pytest.mark.parametrize("bits, beats, cycles", [
     (1, 0, 0), (8, 0, 3), (5, 1, 0), (3, 7, 2), (4, MEMORY_MIN_BEATS - 1, 1),
-    (1, MEMORY_MIN_BEATS, 0), (20, 45, 0), (9, 70, 4)])
+    (1, MEMORY_MIN_BEATS, 2), (20, 45, 3), (9, 70, 4)])
 def test_beat_delay(bits, beats, cycles):
     n = 3 * beats + 40
     rng = np.random.default_rng(beats * 10 + cycles)
     values = [int(v) for v in rng.integers(0, 1 << bits, n)]
     dut = BeatDelay(bits, beats, cycles)
     assert dut.uses_memory == (beats >= MEMORY_MIN_BEATS)
-    assert dut.memory_bits == (beats - 1) * bits * dut.uses_memory
+    assert dut.memory_bits == beats * bits * dut.uses_memory
     out_cycles = []
     out = run_stream(_Clocked(dut),
                      [pack(dut.i_stream.payload.shape(), {"data": v}) for v in values],
@@ -48,7 +48,9 @@ def test_beat_delay(bits, beats, cycles):
 
 @pytest.mark.parametrize("make, name", [
     (lambda: BeatDelay(0, 4), r"bits must be in \[1, 1024\]"),
-    (lambda: BeatDelay(8, -1), r"beats must be in \[0, 65537\]"),
+    (lambda: BeatDelay(8, -1), r"beats must be in \[0, 65536\]"),
+    (lambda: BeatDelay(8, MEMORY_MIN_BEATS, 1),
+     r"cycles must be at least 2 for beats >= 32 \(the memory's read and its register\)"),
     (lambda: BeatDelay(8, 4, -2), r"cycles must be in \[0, 4096\]"),
 ])
 def test_bad_parameters_name_the_parameter(make, name):

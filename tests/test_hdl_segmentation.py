@@ -83,7 +83,7 @@ SEGMENTATION_CASES = [
     (48, (77, 127), (133, 173), 33, None, 5, 3),          # short delay line (registers)
     (48, (77, 127), (133, 173), 33, None, 2 * 24 + 7, 20),  # 2 rows + 7 beats (memory)
     (48, (77, 127), (133, 173), 20, 30, 0, 4),            # cycles only (skin register)
-    (16, (0, 40), (200, 255), 0, 15, 40, 0),              # memory, no cycle; band edges 0, D-1
+    (16, (0, 40), (200, 255), 0, 15, 40, 3),              # memory, fewest cycles; band edges 0, D-1
     (64, (100, 100), (0, 255), 10, 11, 1, 1),              # one-value box, empty band
     (3, (0, 255), (128, 128), 0, None, 3, 7),              # D = 3: band 0 < d < 1 is empty
 ]
@@ -95,7 +95,7 @@ def test_hand_segmentation(nd, cb_r, cr_r, low, high, nb, nc):
     rng = np.random.default_rng(nd + nb)
     dut = HandSegmentation(w, h, nd, cb_r, cr_r, low, high, nb, nc)
     assert dut.disparity_bits == max(1, (nd - 1).bit_length())
-    assert dut.memory_bits == (nb - 1 if nb >= MEMORY_MIN_BEATS else 0)
+    assert dut.memory_bits == (nb if nb >= MEMORY_MIN_BEATS else 0)
     hi = nd - 2 if high is None else high
     chroma = [(_edge_values(rng, (h, w), [cb_r], 255), _edge_values(rng, (h, w), [cr_r], 255))
               for _ in range(2)]
@@ -125,6 +125,8 @@ def test_hand_segmentation(nd, cb_r, cr_r, low, high, nb, nc):
     (lambda: HandSegmentation(24, 12, skin_delay_beats=-1), r"skin_delay_beats must be in"),
     (lambda: HandSegmentation(24, 12, skin_delay_cycles=-1),
      r"skin_delay_cycles must be in \[0, 4096\]"),
+    (lambda: HandSegmentation(24, 12, skin_delay_beats=32, skin_delay_cycles=2),
+     r"skin_delay_cycles must be at least 3 for skin_delay_beats >= 32"),
 ])
 def test_bad_parameters_name_the_parameter(make, name):
     with pytest.raises(ValueError, match=name):

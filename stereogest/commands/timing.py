@@ -106,6 +106,24 @@ def min_fmax(runs: list) -> dict:
     return out
 
 
+def source_commit() -> dict | None:
+    """The git commit of the checkout the hardware was built from, and whether
+    its tracked files differed from it (None outside a git checkout)."""
+    import subprocess
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[2]
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
+                             text=True, timeout=60)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=root, capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if sha.returncode != 0:
+        return None
+    return {"sha": sha.stdout.strip(), "dirty": bool(dirty.stdout.strip())}
+
+
 def parse_seeds(seed, seeds) -> list:
     """The placer seeds of ``--seed`` (repeated) and ``--seeds N,N``, in order,
     each once; ValueError naming the option otherwise."""
@@ -200,6 +218,7 @@ def run(args) -> int:
         "device": DEVICE["name"], "width": args.width, "height": args.height,
         "params": params.as_dict(), "calibration": args.calibration,
         "seeds": seeds, "router": args.router,
+        "commit": source_commit(), "tools": per_seed[0]["blocks"][0]["tools"],
         "runs": per_seed, "min_fmax_mhz": minimum,
         "passed": all(run["passed"] for run in per_seed),
         "seconds": round(time.perf_counter() - start, 1),
