@@ -10,7 +10,7 @@ from sim.model.validation import check_int, check_odd_window
 
 __all__ = ["check_int", "check_odd_window", "check_geometry", "check_domain", "delay", "replicate",
            "register_input", "times_constant",
-           "KEEP_REGISTER", "NO_RW_COLLISION",
+           "KEEP_REGISTER", "NO_RW_COLLISION", "registered_read",
            "bits_for", "WIDTH_RANGE", "HEIGHT_RANGE", "PIXEL_BITS_RANGE"]
 
 WIDTH_RANGE = (8, 4096)
@@ -55,12 +55,31 @@ def delay(m, value, cycles: int, name: str = "dly", *, reset_less: bool = False)
 KEEP_REGISTER = {"keep": 1, "preserve": 1}
 
 #: Attributes of a memory whose read port never reads a word in the cycle the
-#: write port writes it (or discards such a read): yosys' ``no_rw_check``. Without
-#: it yosys keeps the read-old-data semantics of a collision on the ECP5's
-#: block RAM with a bypass multiplexer behind the read port (a LUT and two
-#: registers), logic between the block and the register that should follow it
-#: (routed: a block's output through that LUT was the limit of the pipeline).
+#: write port writes it (or discards such a read): yosys' ``no_rw_check``. With
+#: it, and the read made by :func:`registered_read`, yosys builds no collision
+#: bypass behind the block.
 NO_RW_COLLISION = {"no_rw_check": 1}
+
+
+def registered_read(m, memory, addr, name: str, *, en=None):
+    """The word of ``memory`` at ``addr`` in a register (loaded when ``en``, or
+    every cycle): the block RAM's own read register, so the word is there one
+    cycle after ``addr``, as from a synchronous read port.
+
+    The read port is combinational and the register follows it: yosys merges the
+    two into the block's synchronous read, and with :data:`NO_RW_COLLISION` on
+    the memory it keeps no read-old-data semantics for a collision with the
+    write port. An Amaranth synchronous read port declares those semantics, and
+    yosys builds them on the ECP5 as a multiplexer (a LUT and two registers)
+    behind the block, whatever the attribute: logic between the block and the
+    register after it (routed, a block's output through that LUT was the limit
+    of the whole pipeline)."""
+    port = memory.read_port(domain="comb")
+    m.d.comb += port.addr.eq(addr)
+    word = Signal(port.data.shape(), name=name, reset_less=True)
+    with m.If(1 if en is None else en):
+        m.d.sync += word.eq(port.data)
+    return word
 
 
 def replicate(m, value, copies: int, name: str = "rep", init: int = 0, *,

@@ -29,7 +29,7 @@ from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import (KEEP_REGISTER, NO_RW_COLLISION, bits_for, check_geometry, check_int,
-                    check_odd_window, delay, replicate)
+                    check_odd_window, delay, registered_read, replicate)
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -192,13 +192,12 @@ class ColumnSum(wiring.Component):
             # discarded)
             m.submodules[f"mem_{g}"] = mem = memory.Memory(shape=cb * len(ds), depth=w,
                                                            init=[], attrs=NO_RW_COLLISION)
-            rd = mem.read_port()
             wr = mem.write_port()
             addr = pos.registered(lambda x, y: x, f"addr_{g}", range(w),
                                   first=group_firsts[g], beat=beats[g], attrs=KEEP_REGISTER)
-            m.d.comb += [rd.addr.eq(addr), rd.en.eq(1)]
+            word = registered_read(m, mem, addr, f"read_{g}")
             stored = Signal(cb * len(ds), name=f"stored_{g}", reset_less=True)
-            m.d.sync += stored.eq(rd.data)
+            m.d.sync += stored.eq(word)
             sums = []
             for k, d in enumerate(ds):
                 s_new = Signal(cb, name=f"csum_{d}", reset_less=True)

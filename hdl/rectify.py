@@ -32,7 +32,7 @@ from amaranth.lib.wiring import In, Out
 from sim.model.rectify import INTERPOLATIONS, RectifyGrid
 
 from ._util import (NO_RW_COLLISION, bits_for, check_geometry, check_int, delay,
-                    register_input, replicate, times_constant)
+                    register_input, registered_read, replicate, times_constant)
 from .raster_position import OVERRUN_ROWS, RasterPosition
 from .stage import StageTiming
 
@@ -289,9 +289,8 @@ class Rectifier(wiring.Component):
                                  wr.en.eq(reg(w_en_2 & (w_bank_2 == b)
                                               & (w_addr_2[chunk_bits:] == c),
                                               f"wen3_{name}_{lane}"))]
-                    rd = chunk.read_port(transparent_for=())
-                    m.d.comb += rd.addr.eq(read_addr[b][:chunk_bits])
-                    lane_data.append(rd.data)
+                    lane_data.append(registered_read(m, chunk, read_addr[b][:chunk_bits],
+                                                     f"{name}_word{lane}"))
                 chunk_data.append(Cat(*lane_data))
             banks.append(chunk_data)
 
@@ -346,13 +345,14 @@ class Rectifier(wiring.Component):
             m.d.comb += [wr.addr.eq(reg(Cat(k_6[1:1 + col_bits], parity_6), f"laddr_{odd}")),
                          wr.data.eq(reg(v_new.as_value(), f"lword_{odd}")),
                          wr.en.eq(reg(ok_6 & (k_6[0] == odd), f"len_{odd}"))]
-            lines.append(line.read_port(transparent_for=()))
+            line_addr = Signal(col_bits + 1, name=f"line_addr_{odd}")
+            lines.append((line_addr, registered_read(m, line, line_addr, f"line_word_{odd}")))
 
         # --- per output pixel, one register stage after another (18 in all) -----------
         x_1, y_1 = reg(out.x, "x1"), reg(out.y, "y1")
         gx_1 = x_1 >> s
-        for line, addr in ((lines[0], (gx_1 + 1) >> 1), (lines[1], gx_1 >> 1)):
-            m.d.comb += line.addr.eq(Cat(addr[:col_bits], reg(out.y[0], "row1")))
+        for (line_addr, _), addr in ((lines[0], (gx_1 + 1) >> 1), (lines[1], gx_1 >> 1)):
+            m.d.comb += line_addr.eq(Cat(addr[:col_bits], reg(out.y[0], "row1")))
         # V(gx), V(gx + 1) out of the line memories (the even one holds V(gx) when
         # gx is even, V(gx + 1) when odd), each times its weight: the weights swap,
         # not the words, so the memories feed the multipliers directly
@@ -366,8 +366,8 @@ class Rectifier(wiring.Component):
         # one copy of each weight per multiplier (kept apart in synthesis)
         w_even = dict(zip(("dx", "dy"), replicate(m, w_even, 2, "w_even3", reset_less=True)))
         w_odd = dict(zip(("dx", "dy"), replicate(m, w_odd, 2, "w_odd3", reset_less=True)))
-        even = data.View(line_shape, reg(lines[0].data.as_value(), "even3"))
-        odd = data.View(line_shape, reg(lines[1].data.as_value(), "odd3"))
+        even = data.View(line_shape, reg(lines[0][1].as_value(), "even3"))
+        odd = data.View(line_shape, reg(lines[1][1].as_value(), "odd3"))
         sum_bits = lb + s + 1
         blend = {}
         for axis in ("dx", "dy"):

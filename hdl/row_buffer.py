@@ -22,7 +22,7 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import data, memory, wiring
 from amaranth.lib.wiring import In, Out
 
-from ._util import NO_RW_COLLISION, PIXEL_BITS_RANGE, check_int, delay
+from ._util import NO_RW_COLLISION, PIXEL_BITS_RANGE, check_int, delay, registered_read
 
 __all__ = ["RowBuffer", "MEMORY_MIN_LENGTH"]
 
@@ -94,18 +94,19 @@ class RowBuffer(wiring.Component):
         # beats after that read: the ports never meet on a word
         m.submodules.mem = mem = memory.Memory(shape=width, depth=n, init=[],
                                                attrs=NO_RW_COLLISION)
-        rd = mem.read_port()
         wr = mem.write_port()
         ptr = Signal(range(n))
         with m.If(self.beat):
             m.d.sync += ptr.eq(Mux(ptr == n - 1, 0, ptr + 1))
+        # the block's read register, then one more next to the block's consumers
+        word = registered_read(m, mem, ptr, "read_word",
+                               en=self.beat if self.hold_output else None)
         out = Signal(width, name="read_reg", reset_less=True)
         read = delay(m, self.beat, 1, "read")
         with m.If(read if self.hold_output else 1):
-            m.d.sync += out.eq(rd.data)
+            m.d.sync += out.eq(word)
         write_data = delay(m, self.i_data.as_value(), 1, "wdata", reset_less=True)
         m.d.comb += [
-            rd.addr.eq(ptr), rd.en.eq(self.beat if self.hold_output else 1),
             wr.addr.eq(delay(m, ptr, self.cycles + 1, "waddr", reset_less=True)),
             wr.en.eq(delay(m, sample, 1, "wen")),
             wr.data.eq(write_data),

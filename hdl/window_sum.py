@@ -16,7 +16,7 @@ from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ._util import (KEEP_REGISTER, NO_RW_COLLISION, bits_for, check_geometry, check_int,
-                    check_odd_window, delay, replicate)
+                    check_odd_window, delay, registered_read, replicate)
 from .raster_position import RasterPosition
 from .stage import StageTiming
 
@@ -162,10 +162,11 @@ class WindowSum(wiring.Component):
                 ring = memory.Memory(shape=(hi - lo) * tb, depth=depth, init=[],
                                      attrs=NO_RW_COLLISION)
                 m.submodules[f"ring_{g}"] = ring
-                wr, rd = ring.write_port(), ring.read_port()
+                wr = ring.write_port()
                 m.d.comb += [wr.addr.eq(waddrs[g]), wr.data.eq(csums[g]),
-                             wr.en.eq(beats[g]), rd.addr.eq(raddrs[g]), rd.en.eq(beats[g])]
-                ring_outs.append(rd.data)
+                             wr.en.eq(beats[g])]
+                ring_outs.append(registered_read(m, ring, raddrs[g], f"ring_word_{g}",
+                                                 en=beats[g]))
         else:
             ring_outs = csums
         leavings = []
