@@ -29,18 +29,22 @@ bench: $(STAMP)
 # Routed timing on an ECP5 (nextpnr): every block, the whole matcher, the whole
 # pipeline with three placer seeds, thesis parameters and with the default rig's
 # calibration and hand tracking (hours on this 2-core machine; figures in
-# hdl/README.md). PR_JOBS placements at a time.
+# hdl/README.md). PR_JOBS placements at a time. The two pipeline runs become the
+# record hdl/timing_pipeline.json and the table in hdl/README.md, which make test
+# checks against the hardware (a failed seed still writes them: the table says it).
 PR_JOBS ?= 2
 timing: $(STAMP)
 	mkdir -p build
 	$(BIN)/stereogest timing --block all -o build/timing_blocks.json
 	$(BIN)/stereogest timing --block matcher -o build/timing_matcher.json
-	$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
+	-$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
 		-o build/timing_pipeline.json
 	$(BIN)/stereogest chessboards --count 1 -o build/chessboards --truth build/rig_calibration.json
-	$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
+	-$(BIN)/stereogest timing --block pipeline --seeds 1,2,3 --jobs $(PR_JOBS) \
 		--calibration build/rig_calibration.json --hand-tracking \
 		-o build/timing_pipeline_calibrated.json
+	$(BIN)/python -m hdl.timing_record build/timing_pipeline.json \
+		build/timing_pipeline_calibrated.json -o hdl/timing_pipeline.json --readme hdl/README.md
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'

