@@ -217,14 +217,20 @@ def main(argv=None) -> int:
         rec = record(reports)
         readme = None
         if args.readme:
-            readme = replace_table(Path(args.readme).read_text(), render_table(rec))
+            try:
+                readme = replace_table(Path(args.readme).read_text(), render_table(rec))
+            except OSError as exc:
+                raise ValueError(f"--readme: {args.readme}: {exc.strerror}") from None
+        from sim.atomic import write_text_atomic
+        try:
+            write_text_atomic(args.output, json.dumps(rec, indent=1) + "\n")
+        except OSError as exc:
+            raise ValueError(f"--output: {args.output}: {exc.strerror}") from None
+        if readme is not None:
+            write_text_atomic(args.readme, readme)
     except ValueError as exc:
         print(f"python -m hdl.timing_record: error: {exc}", file=sys.stderr)
         return 2
-    from sim.atomic import write_text_atomic
-    write_text_atomic(args.output, json.dumps(rec, indent=1) + "\n")
-    if readme is not None:
-        write_text_atomic(args.readme, readme)
     print(render_table(rec))
     return 0
 

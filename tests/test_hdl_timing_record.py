@@ -86,6 +86,13 @@ def test_main_writes_the_record_and_the_readme_or_one_error_line(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.json: not a readable timing report" in err[0]
     assert not (tmp_path / "n.json").exists()
+    # a README without the markers, or one that is missing: one line, nothing written
+    for bad, word in ((tmp_path / "rec.json", "markers"), (tmp_path / "none.md", "--readme")):
+        assert tr.main([*map(str, paths), "-o", str(tmp_path / "m.json"),
+                        "--readme", str(bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and word in err[0]
+        assert not (tmp_path / "m.json").exists()
 
 
 def test_readme_shows_the_records_table():

@@ -8,7 +8,7 @@ writes, the 300 ms pause, NACK retry and give-up, a slow sensor, a master
 without the power-up waits, restart, fast-mode timing).
 
 The whole-table runs print their measured timing with ``-s``; the run of the
-board configuration (50 MHz / 400 kHz, 35 s of wall time measured here) is opt-in:
+board configuration (50 MHz / 400 kHz, 21 M clock cycles) is opt-in:
 ``OV5642_FULL_50MHZ=1 pytest tests/test_soc_ov5642_config.py -k full_sequence -s``.
 """
 from __future__ import annotations
@@ -400,7 +400,7 @@ def test_sequence_with_nack_retry_cocotb(tmp_path):
     assert rep["f_scl_khz"] <= 400.0 + 1e-6 and rep["pause_ms"] >= 300.0
 
 
-@pytest.mark.skipif(not FULL_50MHZ, reason="21 M clock cycles of simulation (35 s here); "
+@pytest.mark.skipif(not FULL_50MHZ, reason="21 M clock cycles of simulation; "
                     "set OV5642_FULL_50MHZ=1")
 def test_full_sequence_50mhz_cocotb(tmp_path):
     """The board configuration, 50 MHz / 400 kHz: the power-up as the model
