@@ -51,7 +51,7 @@ from .synthesis import component_ports, find_yosys
 __all__ = ["PortShell", "BoardClocks", "place_and_route", "place_and_route_seeds",
            "find_nextpnr", "timing_design", "DEVICE", "ROUTERS", "MAX_IO_BITS", "BLOCKS",
            "WHOLE_DESIGNS", "CI_BLOCKS", "CLOCK_PINS", "RESET_PORT", "child_cpu_seconds",
-           "timing_rtlil", "tool_versions"]
+           "timing_rtlil", "tool_versions", "ToolError"]
 
 #: The part: LFE5U-85F, CABGA381, speed grade 8 (the fastest ECP5).
 DEVICE = {"name": "LFE5U-85F-8CABGA381", "nextpnr": ["--85k", "--package", "CABGA381",
@@ -383,7 +383,8 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
         Keep the intermediate files there (RTLIL, netlist, LPF, and per seed
         ``nextpnr_s<seed>.log`` and ``report_s<seed>.json``).
     timeout : float, optional
-        Seconds each tool run may take; RuntimeError when exceeded.
+        Seconds each tool run may take: synthesis past it raises
+        :class:`ToolError`, a placement past it is recorded as not routed.
 
     Returns
     -------
@@ -397,7 +398,8 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
         ``globals`` (nextpnr's promotions); ``synth_cpu_s``, ``pnr_cpu_s``
         (each tool run's own CPU seconds: the figures to compare on a shared
         machine) and ``synth_s``, ``pnr_s``, ``placement_s``, ``routing_s``
-        (wall seconds).
+        (wall seconds); ``routed``: False for a seed nextpnr did not finish
+        (its ``error`` line, no Fmax, not passed; the other seeds still run).
     """
     if router not in ROUTERS:
         raise ValueError(f"router must be one of {', '.join(ROUTERS)}, got {router!r}")
@@ -460,15 +462,41 @@ def place_and_route_seeds(dut, name: str, *, clocks: dict[str, float], shell: bo
                 "--report", report_name, "--detailed-timing-report", "--seed", str(seed),
                 "--router", router, "--timing-allow-fail", "-q", "-l", log_name]
             start = time.perf_counter()
-            cpu = _run(cmd, folder, timeout, "nextpnr-ecp5", log=folder / log_name)
+            try:
+                cpu = _run(cmd, folder, timeout, "nextpnr-ecp5", log=folder / log_name)
+            except ToolError as error:
+                # one placement the router cannot finish is a figure of the
+                # netlist too: recorded, and the other seeds still run
+                say(f"{name}: seed {seed} not routed: {_last_error(str(error))}")
+                return _unrouted(common, seed, clocks, error,
+                                 round(time.perf_counter() - start, 1))
             result = {**common, "seed": seed, "pnr_s": round(time.perf_counter() - start, 1),
-                      "pnr_cpu_s": round(cpu, 1)}
+                      "pnr_cpu_s": round(cpu, 1), "routed": True}
             log = (folder / log_name).read_text(errors="replace")
             report = json.loads((folder / report_name).read_text())
             return _route_figures(result, clocks, log, report)
 
         with ThreadPoolExecutor(max_workers=min(jobs, len(seeds))) as pool:
             return list(pool.map(route, seeds))
+
+
+def _last_error(text: str) -> str:
+    """The tool's own error line (nextpnr's last "ERROR: ..."), else the
+    message's first line."""
+    errors = re.findall(r"^ERROR: (.+)$", text, re.M)
+    return (errors[-1] if errors else text.splitlines()[0]).strip()[:300]
+
+
+def _unrouted(common: dict, seed: int, clocks: dict, error: ToolError, wall_s: float) -> dict:
+    """The result of a placement nextpnr did not finish: ``routed`` False,
+    its ``error`` line, no Fmax, not passed."""
+    return {**common, "seed": seed, "pnr_s": wall_s, "pnr_cpu_s": round(error.cpu_s, 1),
+            "routed": False, "error": _last_error(str(error)),
+            "placement_s": None, "routing_s": None, "utilisation": {},
+            "clocks": {port: {"constraint_mhz": round(hz / 1e6, 3), "fmax_mhz": None,
+                              "passed": False, "critical_path": None}
+                       for port, hz in clocks.items()},
+            "fanout_nets": [], "globals": [], "reset": {}, "passed": False}
 
 
 def _route_figures(result: dict, clocks: dict, log: str, report: dict) -> dict:
@@ -600,10 +628,20 @@ def child_cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+class ToolError(RuntimeError):
+    """A tool that failed or outlived its timeout; ``cpu_s`` is the CPU
+    seconds it used until then."""
+
+    def __init__(self, message: str, cpu_s: float):
+        super().__init__(message)
+        self.cpu_s = cpu_s
+
+
 def _run(cmd, cwd, timeout, what, log: Path | None = None) -> float:
     """Run a tool to its end; returns its own CPU seconds (user + system, from
-    ``wait4``: right also while other tools run beside it). RuntimeError with
-    the end of its output (or of ``log``) if it fails or outlives ``timeout``."""
+    ``wait4``: right also while other tools run beside it). :class:`ToolError`
+    with the end of its output (or of ``log``) if it fails or outlives
+    ``timeout``."""
     killed = []
 
     def kill():
@@ -621,11 +659,12 @@ def _run(cmd, cwd, timeout, what, log: Path | None = None) -> float:
             if timer:
                 timer.cancel()
         proc.returncode = os.waitstatus_to_exitcode(status)
+        cpu = usage.ru_utime + usage.ru_stime
         if killed:
-            raise RuntimeError(f"{what} did not finish within {timeout:g} s")
+            raise ToolError(f"{what} did not finish within {timeout:g} s", cpu)
         if proc.returncode != 0:
             out.seek(0)
             text = out.read().decode(errors="replace")[-1500:]
             tail = log.read_text(errors="replace")[-1500:] if log and log.exists() else ""
-            raise RuntimeError(f"{what} failed (exit {proc.returncode}): {text}{tail}")
-    return usage.ru_utime + usage.ru_stime
+            raise ToolError(f"{what} failed (exit {proc.returncode}): {text}{tail}", cpu)
+    return cpu

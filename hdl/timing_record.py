@@ -98,7 +98,10 @@ def record(reports) -> dict:
                                       ("start", "end", "logic_levels", "delay_ns",
                                        "routing_ns")} if path else None}
             seeds[str(b["seed"])] = {"clocks": clocks, "pnr_cpu_s": b["pnr_cpu_s"],
-                                     "resources": b["resources"]}
+                                     "resources": b["resources"],
+                                     "routed": b.get("routed", True)}
+            if not seeds[str(b["seed"])]["routed"]:
+                seeds[str(b["seed"])]["error"] = b.get("error", "")
         configurations[config.name] = {
             "calibration": report.get("calibration"), "hand_tracking": config.hand_tracking,
             "target_mhz": config.target_mhz, "rtlil_sha256": digests.pop(), "seeds": seeds,
@@ -140,10 +143,14 @@ def render_table(rec: dict) -> str:
             route = (f"`{path.get('start')}` to `{path.get('end')}`, {path.get('logic_levels')} "
                      f"levels, {path.get('delay_ns')} ns of which {path.get('routing_ns')} ns "
                      "routing") if path else "-"
+            fmax_text = f"{fmax} MHz{mark}"
+            if not run.get("routed", True):
+                fmax_text = "not routed"
+                route = f"nextpnr: {run.get('error', '')}".replace("|", "/")
             head = (f"{name} | >= {conf['target_mhz']:g} MHz"
                     + (": met" if _met(rec, name) else ": not met")) if k == 0 else " | "
             cam_text = f"{cam['fmax_mhz']} MHz (at {cam['constraint_mhz']:g})" if cam else "-"
-            lines.append(f"| {head} | {seed} | {fmax} MHz{mark} | {cam_text} | {route} |")
+            lines.append(f"| {head} | {seed} | {fmax_text} | {cam_text} | {route} |")
     commits = sorted({(c or {}).get("sha", "?")[:10] + ("+" if (c or {}).get("dirty") else "")
                       for c in rec["commits"]})
     tools = rec["tools"] or {}

@@ -115,6 +115,37 @@ def test_seeds_share_one_synthesis(tmp_path):
     assert report["passed"]
 
 
+def test_a_seed_nextpnr_cannot_route_is_recorded(tmp_path, monkeypatch):
+    """A placement the router gives up on (as nextpnr once did on the reset's
+    route to its clock buffer) is a result with its error line, not the end of
+    the run: the other seed is routed and reported."""
+    import sys
+
+    import hdl.place_route as pr
+    real = pr.find_nextpnr()
+    wrapper = tmp_path / "nextpnr_fails_seed_2.py"
+    wrapper.write_text(
+        "import subprocess, sys\n"
+        "args = sys.argv[1:]\n"
+        "if args[args.index('--seed') + 1] == '2':\n"
+        "    print('Info: routing ...')\n"
+        "    print('ERROR: Failed to route arc 0 of net rst_synced')\n"
+        "    sys.exit(1)\n"
+        f"sys.exit(subprocess.run({real!r} + args).returncode)\n")
+    monkeypatch.setattr(pr, "find_nextpnr", lambda: [sys.executable, str(wrapper)])
+    said = []
+    results = place_and_route_seeds(_Wide(), "wide", clocks={"clk": 100e6}, shell=True,
+                                    seeds=(1, 2), jobs=1, progress=said.append)
+    routed, failed = results
+    assert routed["routed"] and routed["passed"] and routed["clocks"]["clk"]["fmax_mhz"] > 100
+    assert not failed["routed"] and not failed["passed"]
+    assert failed["error"] == "Failed to route arc 0 of net rst_synced"
+    assert failed["clocks"]["clk"] == {"constraint_mhz": 100.0, "fmax_mhz": None,
+                                       "passed": False, "critical_path": None}
+    assert failed["rtlil_sha256"] == routed["rtlil_sha256"]
+    assert any("seed 2 not routed: Failed to route arc 0" in line for line in said)
+
+
 def test_report_fields(ci_report):
     _, report = ci_report
     assert report["device"] == "LFE5U-85F-8CABGA381"

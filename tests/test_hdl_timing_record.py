@@ -53,6 +53,20 @@ def test_record_and_table_from_two_reports():
         tr.replace_table("no markers", table)
 
 
+def test_a_seed_not_routed_is_shown_and_not_met():
+    report = _report(True, True, fmax=(121.0, 122.0, 123.0))
+    block = report["runs"][2]["blocks"][0]
+    block.update(routed=False, error="Failed to route arc 0 of net rst")
+    block["clocks"]["clk"].update(fmax_mhz=None, passed=False, critical_path=None)
+    rec = tr.record([report, _report(False, False)])
+    assert rec["configurations"]["calibration + hand tracking"]["seeds"]["3"]["error"] \
+        == "Failed to route arc 0 of net rst"
+    table = tr.render_table(rec)
+    assert "calibration + hand tracking | >= 110 MHz: not met | 1 | 121.0 MHz |" in table
+    assert "| 3 | not routed | 153.0 MHz (at 50) | nextpnr: Failed to route arc 0 of net rst |" \
+        in table
+
+
 @pytest.mark.parametrize("mutate, match", [
     (lambda rs: rs.pop(), r"no report of the configuration\(s\) calibration \+ hand tracking"),
     (lambda rs: rs.append(copy.deepcopy(rs[0])), "two reports of the configuration 'thesis'"),

@@ -78,7 +78,8 @@ def table(results: list, minimum: dict | None = None) -> str:
         res = r["resources"]
         for k, (clock, c) in enumerate(r["clocks"].items()):
             path = c["critical_path"] or {}
-            fmax = f"{c['fmax_mhz']:.1f}" if c["fmax_mhz"] is not None else "-"
+            fmax = (f"{c['fmax_mhz']:.1f}" if c["fmax_mhz"] is not None
+                    else "-" if r.get("routed", True) else "unrouted")
             tail = (f"{res['lut4']:>7} {res['ccu2c']:>6} {res['ff']:>7} {res['ebr']:>4} "
                     f"{r['synth_cpu_s']:>11.1f} {r['pnr_cpu_s']:>9.1f}") if k == 0 else ""
             rows.append(f"{(r['block'] if k == 0 else ''):<18} "
