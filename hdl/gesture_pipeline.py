@@ -375,7 +375,7 @@ class GesturePipeline(wiring.Component):
         m.submodules.moving_average = avg = self.stage("moving_average")
         m.submodules.spotting = spot = self.stage("spotting")
         c = cen.o_stream.payload
-        connect_remapped(m, cen.o_stream, avg.i_stream, valid=c.area != 0)   # a hand was seen
+        connect_remapped(m, cen.o_stream, avg.i_stream, valid=c.hand)   # a hand was seen
         connect_remapped(m, avg.o_stream, spot.i_stream)
         # The raw centroid waits for the averaging and spotting stages; it loads
         # from its own copy of the centroid's valid, a cycle late (the centroid

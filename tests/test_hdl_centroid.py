@@ -84,6 +84,9 @@ def _gaps(n, idle, seed):
 
 def _centroids(dut, words):
     layout = dut.o_stream.payload.shape()
+    # the hand flag is the area's own: nonzero area
+    assert [int(v) for v in field(layout, words, "hand")] == \
+        [int(v != 0) for v in field(layout, words, "area")]
     return [tuple(int(v) for v in t) for t in
             zip(*(field(layout, words, name) for name in ("x", "y", "area")))]
 

