@@ -193,7 +193,7 @@ class Rectifier(wiring.Component):
         ``row buffers`` (rows * width * lanes * 8), ``map grid`` and ``map line``.
     """
 
-    cycles = 19
+    cycles = 20
 
     def __init__(self, width: int, height: int, grid: RectifyGrid, *, lanes: int = 1,
                  interpolation: str = "bilinear", max_shift_x: int | None = None,
@@ -348,7 +348,7 @@ class Rectifier(wiring.Component):
             line_addr = Signal(col_bits + 1, name=f"line_addr_{odd}")
             lines.append((line_addr, registered_read(m, line, line_addr, f"line_word_{odd}")))
 
-        # --- per output pixel, one register stage after another (19 in all) -----------
+        # --- per output pixel, one register stage after another (20 in all) -----------
         x_1, y_1 = reg(out.x, "x1"), reg(out.y, "y1")
         gx_1 = x_1 >> s
         for (line_addr, _), addr in ((lines[0], (gx_1 + 1) >> 1), (lines[1], gx_1 >> 1)):
@@ -443,26 +443,29 @@ class Rectifier(wiring.Component):
             col_bank = reg(Mux(inside[b], col_half[b], 0), f"col9_{b}", 2)
             addr = (row_base + col_bank)[:depth_bits]
             m.d.comb += read_addr[b].eq(addr)
-            chunk_of.append(reg(addr[chunk_bits:], f"chunk11_{b}", 2))
-        # each chunk's word registered; the chunk's word of each bank registered
-        # (the chunks' registers sit by their blocks, across the chip: gathering
-        # them and choosing the tap in one cycle was routed at 9.5 ns); then
-        # each bank's word to its tap (00, 10, 01, 11: x, y offsets), 0 outside;
-        # the weights
+            chunk_of.append(reg(addr[chunk_bits:], f"chunk12_{b}", 3))
+        # each chunk's word registered twice: the first register's only sink
+        # is the second, so it sits by its block (a block's output is late,
+        # 4.3 ns after the clock, and routed across the chip to a register
+        # pulled towards the chunk choice it cost 9.8 ns); the chunk's word of
+        # each bank registered (gathering the chunks' words and choosing the
+        # tap in one cycle was routed at 9.5 ns); then each bank's word to its
+        # tap (00, 10, 01, 11: x, y offsets), 0 outside; the weights
         words = []
         for b, chunk_data in enumerate(banks):
-            chunk_words = [reg(word, f"word11_{b}_{c}") for c, word in enumerate(chunk_data)]
-            word = Signal(8 * self.lanes, name=f"word11_{b}")
+            chunk_words = [reg(reg(word, f"word11_{b}_{c}"), f"word12_{b}_{c}")
+                           for c, word in enumerate(chunk_data)]
+            word = Signal(8 * self.lanes, name=f"word12_{b}")
             with m.Switch(chunk_of[b]):
                 for c, chunk_word in enumerate(chunk_words):
                     with m.Case(c):
                         m.d.comb += word.eq(chunk_word)
-            words.append(reg(word, f"word12_{b}"))
-        inside_late = [reg(ok, f"inside12_{b}", 5) for b, ok in enumerate(inside)]
-        ix_odd, iy_odd = reg(ix_r[0], "ixodd", 6), reg(iy_r[0], "iyodd", 6)
+            words.append(reg(word, f"word13_{b}"))
+        inside_late = [reg(ok, f"inside13_{b}", 6) for b, ok in enumerate(inside)]
+        ix_odd, iy_odd = reg(ix_r[0], "ixodd", 7), reg(iy_r[0], "iyodd", 7)
         one = 1 << f
         # the fractions and their complements registered
-        ax_8, ay_8 = reg(ax_r, "ax8", 3), reg(ay_r, "ay8", 3)
+        ax_8, ay_8 = reg(ax_r, "ax8", 4), reg(ay_r, "ay8", 4)
         ax_9, ay_9 = reg(ax_8, "ax9"), reg(ay_8, "ay9")
         nax_9, nay_9 = reg(one - ax_8, "nax9"), reg(one - ay_8, "nay9")
         taps = []
