@@ -72,7 +72,39 @@ def inputs(tmp_path_factory):
     (root / "calib_no_t.json").write_text(json.dumps(doc))
     (root / "unpaired").mkdir()
     Image.fromarray(np.zeros((48, 64), np.uint8)).save(root / "unpaired" / "left_a.png")
+    _posture_inputs(root)
     return root
+
+
+def _posture_inputs(root):
+    """Pictures for train-posture and classify-posture: two students' photos,
+    look-alikes of them, and a posture model trained on them."""
+    from recognition import posture as rp
+    photos = np.load(DATA / "hand_postures" / "sign_language_digits_dev.npz")
+    keep = photos["subject"] < 2
+    image, label, subject = photos["image"][keep], photos["label"][keep], \
+        photos["subject"][keep]
+    np.savez(root / "postures.npz", image=image, label=label, subject=subject)
+    np.savez(root / "postures_no_subject.npz", image=image, label=label)
+    np.savez(root / "postures_label_12.npz", image=image, label=np.where(label == 3, 12, label))
+    np.savez(root / "postures_two_names.npz", image=image[:4], label=np.array([0, 1, 2, 1]),
+             class_names=np.array(["fist", "open"]))
+    np.savez(root / "postures_unknown_names.npz", image=image[:2], label=np.array([0, 1]),
+             class_names=np.array(["fist", "open"]))
+    np.savez(root / "postures_grey.npz", image=image[..., 0], label=label)
+    np.savez(root / "postures_64.npz", image=np.ascontiguousarray(image[:, :64, :64]),
+             label=label)
+    white = image.copy()
+    white[5] = 255                                         # a picture without skin
+    np.savez(root / "postures_no_skin.npz", image=white, label=label)
+    data = rp.load_postures(root / "postures.npz")
+    model = rp.train_posture(rp.still_features(rp.picture_masks(data)), data.label,
+                             data.class_names, c=10.0)
+    model.meta = {"picture_size": [100, 100]}
+    (root / "posture.json").write_text(json.dumps(model.to_dict()))
+    bad = model.to_dict()
+    bad["version"] = 9
+    (root / "posture_v9.json").write_text(json.dumps(bad))
 
 
 def case(*argv, match, code=2):
@@ -278,6 +310,47 @@ CASES = [
     case("train", f"{IN}/one_class.npz", "-o", f"{OUT}/m.json", match="one class"),
     case("train", f"{IN}/empty.npz", "-o", f"{OUT}/m.json", match="no trajectories"),
     case("train", f"{IN}/blank_labels.npz", "-o", f"{OUT}/m.json", match="label must not be"),
+    # ------------------------------------------------------------ train-posture
+    *int_option_cases("train-posture", [f"{IN}/postures.npz", "-o", f"{OUT}/p.json"],
+                      ["--copies", "--seed"]),
+    case("train-posture", f"{IN}/postures.npz", match="-o/--output"),
+    case("train-posture", f"{IN}/postures.npz", "-o", f"{OUT}/p.json", "--copies", "33",
+         match="--copies must be an integer in 0..32, got 33"),
+    case("train-posture", f"{IN}/postures.npz", "-o", f"{IN}/adir", match="--output"),
+    case("train-posture", f"{IN}/postures.npz", "-o", f"{OUT}/p.json", "--groups", "writer",
+         match="argument --groups"),
+    case("train-posture", f"{IN}/nope.npz", "-o", f"{OUT}/p.json", match="nope.npz: no such"),
+    case("train-posture", f"{IN}/renamed.npz", "-o", f"{OUT}/p.json", match="renamed.npz"),
+    case("train-posture", f"{IN}/truncated.npz", "-o", f"{OUT}/p.json", match="truncated.npz"),
+    case("train-posture", f"{IN}/data2.npz", "-o", f"{OUT}/p.json",
+         match="data2.npz: has no 'image' array"),
+    case("train-posture", f"{IN}/postures_grey.npz", "-o", f"{OUT}/p.json",
+         match="postures_grey.npz: image must be N x H x W x 3 uint8 RGB"),
+    case("train-posture", f"{IN}/postures_label_12.npz", "-o", f"{OUT}/p.json",
+         match="postures_label_12.npz: label must be in 0..9"),
+    case("train-posture", f"{IN}/postures_two_names.npz", "-o", f"{OUT}/p.json",
+         match="postures_two_names.npz: label must be in 0..1"),
+    case("train-posture", f"{IN}/postures_no_skin.npz", "-o", f"{OUT}/p.json",
+         match="postures_no_skin.npz: image 5 has no skin-coloured pixel"),
+    case("train-posture", f"{IN}/postures_no_subject.npz", "-o", f"{OUT}/p.json", "--groups",
+         "subject", match="--groups subject needs a subject array"),
+    # ------------------------------------------------------------ classify-posture
+    case("classify-posture", f"{IN}/nope.json", f"{IN}/postures.npz", match="nope.json"),
+    case("classify-posture", f"{IN}/text.json", f"{IN}/postures.npz",
+         match="text.json: not a JSON posture model"),
+    case("classify-posture", str(MODEL), f"{IN}/postures.npz",
+         match="gestures7.json: format must be 'stereogest-posture'"),
+    case("classify-posture", f"{IN}/posture_v9.json", f"{IN}/postures.npz",
+         match="posture_v9.json: version must be 1, got 9"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/nope.npz", match="nope.npz"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/postures_64.npz",
+         match="pictures are 64 x 64, the model was trained on 100 x 100"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/postures_label_12.npz",
+         match="label must be in 0..9"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/postures_unknown_names.npz",
+         match="class_names fist, open are not postures of"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/postures_no_skin.npz",
+         match="image 5 has no skin-coloured pixel"),
     case("classify", str(MODEL), f"{IN}/empty.npz", match="no trajectories"),
     case("classify", str(MODEL), f"{IN}/blank_labels.npz", match="label must not be empty"),
     case("train", f"{IN}/data.npz", "-o", f"{OUT}/no/m.json", match="no"),

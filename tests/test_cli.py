@@ -415,7 +415,8 @@ def test_version_and_one_seed_default(capsys):
     sub = next(a for a in parser._actions if a.dest == "command")
     seeds = {name: next(a.default for a in p._actions if a.dest == "seed")
              for name, p in sub.choices.items() if any(a.dest == "seed" for a in p._actions)}
-    assert set(seeds) == {"render", "chessboards", "demo", "gestures", "train", "timing"}
+    assert set(seeds) == {"render", "chessboards", "demo", "gestures", "train", "timing",
+                          "train-posture"}
     # timing's --seed may be repeated (no default list to append to): none given is DEFAULT_SEED
     from stereogest.commands.timing import parse_seeds
     assert seeds.pop("timing") is None and parse_seeds(None, None) == [DEFAULT_SEED]

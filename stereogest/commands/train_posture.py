@@ -1,0 +1,72 @@
+"""Train the posture classifier from labelled pictures of hands and write the
+model file the board loads (sw_hps.posture).
+
+Each picture goes the camera's way (recognition.posture.picture_hand: the
+model's YCbCr, 4:2:2, the skin box, the band all-in), then the posture mask
+and the descriptor (sim.model.posture), presented as a still picture. Each
+training picture adds --copies turned, scaled and (half of them) longer-armed
+copies. C is chosen by a cross-validation over --groups (whole subjects apart;
+without it, pictures apart). Prints a JSON last line."""
+from __future__ import annotations
+
+import json
+import sys
+
+from stereogest.commands import DEFAULT_SEED, add_json_switch, check_output_file
+
+NAME = "train-posture"
+HELP = "train the posture classifier from labelled pictures (DATA.npz) into POSTURE.json"
+
+_COPIES = 8
+_COPIES_RANGE = (0, 32)
+
+
+def add_arguments(p):
+    p.add_argument("data", metavar="DATA.npz",
+                   help="pictures: image (N x H x W x 3 uint8 RGB), label (ints; class_names "
+                        "if given, else asl0..asl9), optional subject")
+    p.add_argument("-o", "--output", metavar="POSTURE.json", required=True,
+                   help="model file to write")
+    p.add_argument("--groups", choices=("subject",), default=None,
+                   help="choose C with whole subjects held out (needs the subject key)")
+    p.add_argument("--copies", type=int, default=_COPIES, metavar="N",
+                   help=f"augmented copies per picture, {_COPIES_RANGE[0]}..{_COPIES_RANGE[1]} "
+                        f"(default {_COPIES})")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="augmentation seed")
+    add_json_switch(p, always=True)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from recognition import posture as rp
+    from sim.atomic import write_text_atomic
+
+    lo, hi = _COPIES_RANGE
+    if not lo <= args.copies <= hi:
+        raise ValueError(f"--copies must be an integer in {lo}..{hi}, got {args.copies}")
+    check_output_file(args.output)
+    data = rp.load_postures(args.data)
+    if args.groups == "subject" and data.subject is None:
+        raise ValueError(f"{args.data}: --groups subject needs a subject array")
+    masks = rp.picture_masks(data, args.data)
+    features = rp.still_features(masks)
+    augmented = rp.augment_masks(masks, args.copies, seed=args.seed)
+    aug_features = rp.still_features(augmented)
+    aug_labels = np.tile(data.label, args.copies)
+    aug_of = np.tile(np.arange(len(data)), args.copies)
+    groups = data.subject if args.groups == "subject" else np.arange(len(data))
+    c = rp.choose_c(features, data.label, groups, data.class_names, augmented=aug_features,
+                    augmented_labels=aug_labels, augmented_of=aug_of)
+    model = rp.train_posture(features, data.label, data.class_names, c=c,
+                             augmented=aug_features, augmented_labels=aug_labels)
+    model.meta = {"data": str(args.data), "pictures": len(data),
+                  "picture_size": list(data.image.shape[1:3]), "copies": args.copies,
+                  "seed": args.seed, "c": c, "groups": args.groups}
+    write_text_atomic(args.output, json.dumps(model.to_dict()) + "\n")
+    print(f"stereogest train-posture: {args.output}: {len(model.class_names)} postures, "
+          f"{len(model.support_vectors)} support vectors, C {c:g}", file=sys.stderr)
+    print(json.dumps({"model": str(args.output), "class_names": model.class_names,
+                      "pictures": len(data), "copies": args.copies, "c": c,
+                      "support_vectors": len(model.support_vectors)}))
+    return 0

@@ -1,0 +1,221 @@
+"""The hand's posture on the board: the descriptor's registers to features,
+and the posture classifier (an RBF support-vector machine, one-vs-one) with its
+versioned model file. Python 3.7 and numpy 1.16 (the board's floor).
+
+The features are the golden model's (:mod:`sim.model.posture` calls
+:func:`posture_features` here, so both sides share one definition): each polar
+count over the squared hand width of the reference, then per crossing band the
+mean run starts per row and the largest.
+
+The model file is JSON: ``format`` ``"stereogest-posture"``, ``version`` 1,
+``class_names``, the standardisation (``mean``, ``scale``), ``gamma``, and the
+machine (``n_support`` per class, ``dual_coef``, ``intercept``, and the support
+vectors as little-endian float32 in base64), the way libsvm keeps a one-vs-one
+RBF machine; ``min_votes`` (a posture whose winner has fewer one-vs-one votes is
+refused; 0 refuses none) and ``meta`` (how it was trained).
+"""
+from __future__ import annotations
+
+import base64
+import json
+
+import numpy as np
+
+__all__ = ["POSTURE_FORMAT", "POSTURE_VERSION", "PostureModel", "posture_features",
+           "read_posture_model"]
+
+POSTURE_FORMAT = "stereogest-posture"
+POSTURE_VERSION = 1
+
+
+def posture_features(polar, band_sum, band_rows, band_max, width):
+    """The classifier's input from one frame's descriptor registers about a
+    reference of hand width ``width`` (all zero when ``width`` is 0: no hand)."""
+    polar = np.asarray(polar, dtype=float)
+    band_sum = np.asarray(band_sum, dtype=float)
+    bands = len(band_sum)
+    out = np.zeros(len(polar) + 2 * bands)
+    if width <= 0:
+        return out
+    out[:len(polar)] = polar / float(width * width)
+    out[len(polar)::2] = band_sum / np.maximum(np.asarray(band_rows, dtype=float), 1.0)
+    out[len(polar) + 1::2] = np.asarray(band_max, dtype=float)
+    return out
+
+
+def _array(data, key, shape, dtype=float):
+    try:
+        value = np.asarray(data[key], dtype=dtype)
+    except KeyError:
+        raise ValueError("posture model has no {}".format(key)) from None
+    except (TypeError, ValueError):
+        raise ValueError("{} must be numbers".format(key)) from None
+    if value.shape != shape or not np.all(np.isfinite(value)):
+        raise ValueError("{} must be finite numbers of shape {}, got shape {}".format(
+            key, shape, value.shape))
+    return value
+
+
+class PostureModel:
+    """A one-vs-one RBF support-vector machine over standardised features.
+
+    Parameters
+    ----------
+    class_names : list of str
+        The postures, in the order of ``n_support``.
+    mean, scale : (F,) floats
+        Standardisation: ``(features - mean) / scale`` (``scale`` > 0).
+    gamma : float > 0
+        The kernel ``exp(-gamma * |a - b|^2)``.
+    support_vectors : (S, F) float32
+        Grouped by class, ``n_support[c]`` of class ``c`` in class order.
+    n_support : (C,) ints
+    dual_coef : (C - 1, S) floats
+        libsvm's layout: for the pair (i, j), the coefficients of class i's
+        vectors are in row j - 1, those of class j's in row i.
+    intercept : (C (C - 1) / 2,) floats
+        One per pair (0, 1), (0, 2) ... (1, 2) ...
+    min_votes : int in [0, C - 1]
+        A decision whose winner has fewer votes is refused (-1, ``None``).
+    meta : dict
+        How the model was made (data, picture size, augmentation, C).
+    """
+
+    def __init__(self, class_names, mean, scale, gamma, support_vectors, n_support,
+                 dual_coef, intercept, min_votes=0, meta=None):
+        self.class_names = list(class_names)
+        self.mean = np.asarray(mean, dtype=float)
+        self.scale = np.asarray(scale, dtype=float)
+        self.gamma = float(gamma)
+        self.support_vectors = np.asarray(support_vectors, dtype=np.float32)
+        self.n_support = np.asarray(n_support, dtype=np.int64)
+        self.dual_coef = np.asarray(dual_coef, dtype=float)
+        self.intercept = np.asarray(intercept, dtype=float)
+        self.min_votes = int(min_votes)
+        self.meta = dict(meta or {})
+        self._starts = np.concatenate([[0], np.cumsum(self.n_support)])
+        self._sv = self.support_vectors.astype(float)
+        self._sv_norms = (self._sv ** 2).sum(axis=1)
+
+    @property
+    def features(self) -> int:
+        return len(self.mean)
+
+    def decide(self, features):
+        """The class index of each row of ``features`` (N x F): the most votes
+        of the one-vs-one machines, the lowest index on a tie; -1 (refused)
+        when the winner has fewer than ``min_votes``."""
+        x = (np.atleast_2d(np.asarray(features, dtype=float)) - self.mean) / self.scale
+        d2 = (x ** 2).sum(axis=1)[:, None] + self._sv_norms[None, :] - 2.0 * x.dot(self._sv.T)
+        kernel = np.exp(-self.gamma * np.maximum(d2, 0.0))
+        n = len(self.class_names)
+        votes = np.zeros((len(x), n), dtype=np.int64)
+        s = self._starts
+        pair = 0
+        for i in range(n):
+            for j in range(i + 1, n):
+                value = (kernel[:, s[i]:s[i + 1]].dot(self.dual_coef[j - 1, s[i]:s[i + 1]])
+                         + kernel[:, s[j]:s[j + 1]].dot(self.dual_coef[i, s[j]:s[j + 1]])
+                         + self.intercept[pair])
+                votes[:, i] += value > 0
+                votes[:, j] += value <= 0
+                pair += 1
+        best = votes.argmax(axis=1)
+        return np.where(votes.max(axis=1) >= self.min_votes, best, -1)
+
+    def classify(self, features):
+        """The posture's name for one feature vector, or None (refused)."""
+        k = int(self.decide(features)[0])
+        return self.class_names[k] if k >= 0 else None
+
+    def to_dict(self) -> dict:
+        sv = self.support_vectors.astype("<f4")
+        return {"format": POSTURE_FORMAT, "version": POSTURE_VERSION,
+                "class_names": self.class_names, "features": self.features,
+                "mean": self.mean.tolist(), "scale": self.scale.tolist(), "gamma": self.gamma,
+                "n_support": self.n_support.tolist(), "dual_coef": self.dual_coef.tolist(),
+                "intercept": self.intercept.tolist(), "min_votes": self.min_votes,
+                "meta": self.meta,
+                "support_vectors": {"shape": list(sv.shape),
+                                    "float32_base64": base64.b64encode(sv.tobytes()).decode()}}
+
+    @classmethod
+    def from_dict(cls, data) -> "PostureModel":
+        """The model of a parsed model file; ``ValueError`` names the first
+        field that is wrong."""
+        if not isinstance(data, dict):
+            raise ValueError("posture model must be a JSON object")
+        if data.get("format") != POSTURE_FORMAT:
+            raise ValueError("format must be {!r}, got {!r}".format(POSTURE_FORMAT,
+                                                                    data.get("format")))
+        if data.get("version") != POSTURE_VERSION or isinstance(data.get("version"), bool):
+            raise ValueError("version must be {}, got {!r}".format(POSTURE_VERSION,
+                                                                  data.get("version")))
+        names = data.get("class_names")
+        if not isinstance(names, list) or len(names) < 2 or len(set(names)) != len(names) \
+                or not all(isinstance(n, str) and n for n in names):
+            raise ValueError("class_names must be at least 2 unique non-empty strings")
+        features = data.get("features")
+        if not isinstance(features, int) or isinstance(features, bool) \
+                or not 1 <= features <= 4096:
+            raise ValueError("features must be an integer in [1, 4096], got {!r}".format(
+                features))
+        mean = _array(data, "mean", (features,))
+        scale = _array(data, "scale", (features,))
+        if not np.all(scale > 0):
+            raise ValueError("scale must be > 0")
+        gamma = data.get("gamma")
+        if not isinstance(gamma, (int, float)) or isinstance(gamma, bool) \
+                or not 0 < gamma < 1e6:
+            raise ValueError("gamma must be a number in (0, 1e6), got {!r}".format(gamma))
+        n = len(names)
+        n_support = _array(data, "n_support", (n,), dtype=np.int64) \
+            if isinstance(data.get("n_support"), list) \
+            and all(isinstance(v, int) and not isinstance(v, bool)
+                    for v in data["n_support"]) else None
+        if n_support is None or np.any(n_support < 1):
+            raise ValueError("n_support must be {} integers >= 1".format(n))
+        total = int(n_support.sum())
+        block = data.get("support_vectors")
+        if not isinstance(block, dict) or block.get("shape") != [total, features] \
+                or not isinstance(block.get("float32_base64"), str):
+            raise ValueError("support_vectors must hold shape [{}, {}] and float32_base64"
+                             .format(total, features))
+        try:
+            raw = base64.b64decode(block["float32_base64"].encode(), validate=True)
+        except ValueError:
+            raise ValueError("support_vectors' float32_base64 is not base64") from None
+        if len(raw) != 4 * total * features:
+            raise ValueError("support_vectors' float32_base64 must hold {} float32".format(
+                total * features))
+        sv = np.frombuffer(raw, dtype="<f4").reshape(total, features)
+        if not np.all(np.isfinite(sv)):
+            raise ValueError("support_vectors must be finite")
+        dual = _array(data, "dual_coef", (n - 1, total))
+        intercept = _array(data, "intercept", (n * (n - 1) // 2,))
+        min_votes = data.get("min_votes", 0)
+        if not isinstance(min_votes, int) or isinstance(min_votes, bool) \
+                or not 0 <= min_votes <= n - 1:
+            raise ValueError("min_votes must be an integer in [0, {}], got {!r}".format(
+                n - 1, min_votes))
+        meta = data.get("meta", {})
+        if not isinstance(meta, dict):
+            raise ValueError("meta must be a JSON object")
+        return cls(names, mean, scale, gamma, sv, n_support, dual, intercept, min_votes, meta)
+
+
+def read_posture_model(path) -> PostureModel:
+    """The model in the file ``path``; ``ValueError`` with one line naming the
+    file and the field."""
+    try:
+        with open(str(path), encoding="utf-8") as f:
+            data = json.load(f)
+    except OSError as error:
+        raise ValueError("{}: cannot read ({})".format(path, error.strerror or error)) \
+            from None
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        raise ValueError("{}: not a JSON posture model".format(path)) from None
+    try:
+        return PostureModel.from_dict(data)
+    except ValueError as error:
+        raise ValueError("{}: {}".format(path, error)) from None
