@@ -154,8 +154,8 @@ def render_table(rec: dict) -> str:
     commits = sorted({(c or {}).get("sha", "?")[:10] + ("+" if (c or {}).get("dirty") else "")
                       for c in rec["commits"]})
     tools = rec["tools"] or {}
-    lines += ["", f"Measured on commit {', '.join(commits)} ('+': with changes not yet "
-              f"committed) with {tools.get('yosys', '?')} and {tools.get('nextpnr', '?')} "
+    lines += ["", f"Measured on commit {', '.join(commits)} ('+': with changes to hdl/, "
+              f"soc/ or sim/ not yet committed) with {tools.get('yosys', '?')} and {tools.get('nextpnr', '?')} "
               f"({rec['device']}, {rec['width']}x{rec['height']}); `make timing`."]
     return "\n".join(lines)
 

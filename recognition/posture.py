@@ -19,6 +19,7 @@ cross-validation over the training subjects (:func:`choose_c`).
 from __future__ import annotations
 
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -76,7 +77,7 @@ def load_postures(path) -> PostureSet:
     except (OSError, ValueError, EOFError, KeyError) as error:
         reason = str(error).splitlines()[0] if str(error) else type(error).__name__
         raise ValueError(f"{path}: not a readable .npz of pictures ({reason})") from None
-    except zipfile.BadZipFile:
+    except (zipfile.BadZipFile, zlib.error):
         raise ValueError(f"{path}: not a readable .npz of pictures (a broken archive)") \
             from None
     for key in ("image", "label"):
@@ -84,6 +85,8 @@ def load_postures(path) -> PostureSet:
             raise ValueError(f"{path}: has no '{key}' array (a DATA.npz of pictures needs "
                              f"image and label)")
     image, label = arrays["image"], arrays["label"]
+    if len(label) == 0 or len(image) == 0:
+        raise ValueError(f"{path}: holds no pictures")
     if image.dtype != np.uint8 or image.ndim != 4 or image.shape[3] != 3 \
             or min(image.shape[1:3]) < 8:
         raise ValueError(f"{path}: image must be N x H x W x 3 uint8 RGB with H, W >= 8, "
@@ -197,8 +200,11 @@ def train_posture(features, labels, class_names, *, c: float,
         x = np.vstack([x, augmented])
         y = np.concatenate([y, augmented_labels])
     mean, scale, gamma, svm = _fit(x, y, c, len(class_names))
+    # scikit-learn keeps libsvm's signs except for two classes, where it flips
+    # both the coefficients and the intercept
+    sign = -1.0 if len(class_names) == 2 else 1.0
     return PostureModel(class_names, mean, scale, gamma, svm.support_vectors_,
-                        svm.n_support_, svm.dual_coef_, svm.intercept_)
+                        svm.n_support_, sign * svm.dual_coef_, sign * svm.intercept_)
 
 
 def _group_folds(groups, folds: int, shuffle: int | None = None):
@@ -207,7 +213,8 @@ def _group_folds(groups, folds: int, shuffle: int | None = None):
     seed ``shuffle``)."""
     ids = np.unique(groups)
     if len(ids) < folds:
-        raise ValueError(f"cross-validation needs at least {folds} subjects, got {len(ids)}")
+        raise ValueError(f"cross-validation needs at least {folds} groups (subjects, or "
+                         f"pictures without --groups), got {len(ids)}")
     if shuffle is not None:
         ids = np.random.default_rng(shuffle).permutation(ids)
     fold_of = {g: k % folds for k, g in enumerate(ids)}
@@ -224,7 +231,13 @@ def choose_c(features, labels, groups, class_names, *, augmented, augmented_labe
     scores = {}
     for c in C_CHOICES:
         right = 0
-        for train, test in _group_folds(groups, folds):
+        for k, (train, test) in enumerate(_group_folds(groups, folds)):
+            missing = sorted(set(range(len(class_names))) - set(labels[train].tolist()))
+            if missing:
+                raise ValueError(
+                    f"choosing C: fold {k + 1} of {folds} leaves no training example of "
+                    f"{', '.join(class_names[m] for m in missing)} (each posture needs "
+                    f"pictures of several subjects)")
             keep = np.isin(augmented_of, train)
             model = train_posture(features[train], labels[train], class_names, c=c,
                                   augmented=augmented[keep],

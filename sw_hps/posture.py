@@ -43,13 +43,22 @@ def posture_features(polar, band_sum, band_rows, band_max, width):
     return out
 
 
+def _numbers(value):
+    """Whether ``value`` is a number or nested lists of numbers (no bool, no string)."""
+    if isinstance(value, list):
+        return all(_numbers(v) for v in value)
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _array(data, key, shape, dtype=float):
+    if key not in data:
+        raise ValueError("posture model has no {}".format(key))
+    if not _numbers(data[key]):
+        raise ValueError("{} must be numbers".format(key))
     try:
         value = np.asarray(data[key], dtype=dtype)
-    except KeyError:
-        raise ValueError("posture model has no {}".format(key)) from None
-    except (TypeError, ValueError):
-        raise ValueError("{} must be numbers".format(key)) from None
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError("{} must be numbers of shape {}".format(key, shape)) from None
     if value.shape != shape or not np.all(np.isfinite(value)):
         raise ValueError("{} must be finite numbers of shape {}, got shape {}".format(
             key, shape, value.shape))
@@ -105,7 +114,11 @@ class PostureModel:
         """The class index of each row of ``features`` (N x F): the most votes
         of the one-vs-one machines, the lowest index on a tie; -1 (refused)
         when the winner has fewer than ``min_votes``."""
-        x = (np.atleast_2d(np.asarray(features, dtype=float)) - self.mean) / self.scale
+        x = np.atleast_2d(np.asarray(features, dtype=float))
+        if x.ndim != 2 or x.shape[1] != self.features:
+            raise ValueError("features must be rows of {} numbers, got shape {}".format(
+                self.features, x.shape))
+        x = (x - self.mean) / self.scale
         d2 = (x ** 2).sum(axis=1)[:, None] + self._sv_norms[None, :] - 2.0 * x.dot(self._sv.T)
         kernel = np.exp(-self.gamma * np.maximum(d2, 0.0))
         n = len(self.class_names)
@@ -152,8 +165,9 @@ class PostureModel:
             raise ValueError("version must be {}, got {!r}".format(POSTURE_VERSION,
                                                                   data.get("version")))
         names = data.get("class_names")
-        if not isinstance(names, list) or len(names) < 2 or len(set(names)) != len(names) \
-                or not all(isinstance(n, str) and n for n in names):
+        if not isinstance(names, list) or len(names) < 2 \
+                or not all(isinstance(n, str) and n for n in names) \
+                or len(set(names)) != len(names):
             raise ValueError("class_names must be at least 2 unique non-empty strings")
         features = data.get("features")
         if not isinstance(features, int) or isinstance(features, bool) \
@@ -169,12 +183,12 @@ class PostureModel:
                 or not 0 < gamma < 1e6:
             raise ValueError("gamma must be a number in (0, 1e6), got {!r}".format(gamma))
         n = len(names)
-        n_support = _array(data, "n_support", (n,), dtype=np.int64) \
-            if isinstance(data.get("n_support"), list) \
-            and all(isinstance(v, int) and not isinstance(v, bool)
-                    for v in data["n_support"]) else None
-        if n_support is None or np.any(n_support < 1):
-            raise ValueError("n_support must be {} integers >= 1".format(n))
+        counts = data.get("n_support")
+        if not isinstance(counts, list) or len(counts) != n \
+                or not all(isinstance(v, int) and not isinstance(v, bool)
+                           and 1 <= v <= 10 ** 7 for v in counts):
+            raise ValueError("n_support must be {} integers in [1, 1e7]".format(n))
+        n_support = np.asarray(counts, dtype=np.int64)
         total = int(n_support.sum())
         block = data.get("support_vectors")
         if not isinstance(block, dict) or block.get("shape") != [total, features] \
@@ -201,6 +215,12 @@ class PostureModel:
         meta = data.get("meta", {})
         if not isinstance(meta, dict):
             raise ValueError("meta must be a JSON object")
+        size = meta.get("picture_size")
+        if size is not None and not (isinstance(size, list) and len(size) == 2 and all(
+                isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 8192
+                for v in size)):
+            raise ValueError("meta picture_size must be [height, width], each an integer in "
+                             "[8, 8192], got {!r}".format(size))
         return cls(names, mean, scale, gamma, sv, n_support, dual, intercept, min_votes, meta)
 
 

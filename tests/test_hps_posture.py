@@ -1,7 +1,7 @@
-"""The posture classifier: the board's numpy machine (sw_hps/posture.py) decides
-as scikit-learn's SVC it was exported from; its model file round-trips and a
-bad one is refused in one line; train-posture and classify-posture on real
-photos (data/hand_postures) with students held out."""
+"""The board's posture classifier (sw_hps/posture.py), with the board's own
+packages only (tests/test_hps_floor.py runs it on Python 3.7 and numpy 1.16):
+the features of the descriptor's registers, a hand-made machine's decisions,
+and the model file's checks (one line naming the file and the field)."""
 from __future__ import annotations
 
 import json
@@ -9,95 +9,15 @@ import json
 import numpy as np
 import pytest
 
-from recognition import posture as rp
-from stereogest.cli import main
-from sw_hps.posture import PostureModel, read_posture_model
-
-DATA = rp.Path(__file__).resolve().parent.parent / "data" / "hand_postures" / \
-    "sign_language_digits_dev.npz"
+from sw_hps.posture import PostureModel, posture_features, read_posture_model
 
 
-@pytest.fixture(scope="module")
-def photos():
-    data = rp.load_postures(DATA)
-    assert len(data) == 1122 and len(np.unique(data.subject)) == 111
-    masks = rp.picture_masks(data)
-    return data, masks, rp.still_features(masks)
-
-
-@pytest.fixture(scope="module")
-def small(tmp_path_factory, photos):
-    """The pictures of 30 students as a DATA.npz."""
-    data = photos[0]
-    keep = data.subject < 30
-    path = tmp_path_factory.mktemp("postures") / "small.npz"
-    np.savez(path, image=data.image[keep], label=data.label[keep],
-             subject=data.subject[keep])
-    return path, keep
-
-
-def test_numpy_machine_decides_as_sklearn(photos):
-    """The exported machine against the library that trained it (an oracle
-    we did not write), on pictures of students it was not trained on."""
-    from sklearn.svm import SVC
-    data, _, x = photos
-    train, test = data.subject >= 20, data.subject < 20
-    model = rp.train_posture(x[train], data.label[train], data.class_names, c=10.0)
-    svm = SVC(C=10.0, gamma=model.gamma).fit((x[train] - model.mean) / model.scale,
-                                              data.label[train])
-    expected = svm.predict((x[test] - model.mean) / model.scale)
-    assert np.array_equal(model.decide(x[test]), expected)
-    # students held out (the first 20, the hardest: 81 % measured), no
-    # augmentation; chance is 10 %
-    assert np.mean(expected == data.label[test]) > 0.7
-    # round trip through the model file
-    again = PostureModel.from_dict(json.loads(json.dumps(model.to_dict())))
-    assert np.array_equal(again.decide(x[test]), model.decide(x[test]))
-    assert model.classify(x[test][0]) == data.class_names[expected[0]]
-
-
-def test_refusal_by_votes(photos):
-    data, _, x = photos
-    model = rp.train_posture(x[:300], data.label[:300], data.class_names, c=10.0)
-    model.min_votes = 9
-    decided = model.decide(x[300:400])
-    assert (decided == -1).any() and (decided >= 0).any()
-    assert model.classify(x[300:301]) in data.class_names + [None]
-
-
-def test_augmented_copies_keep_the_labels_shape(photos):
-    _, masks, _ = photos
-    copies = rp.augment_masks(masks[:10], 3, seed=4)
-    assert copies.shape == (30,) + masks.shape[1:] and copies.dtype == bool
-    assert not np.array_equal(copies[:10], masks[:10])
-    # a longer forearm reaches the bottom edge and keeps the hand's top
-    long_arm = rp._forearm(masks[0], 0.6)
-    assert long_arm[-1].any()
-    assert np.nonzero(long_arm.any(axis=1))[0][0] == np.nonzero(masks[0].any(axis=1))[0][0]
-
-
-def test_train_and_classify_commands(tmp_path, small, capsys):
-    path, keep = small
-    out = tmp_path / "posture.json"
-    assert main(["train-posture", str(path), "-o", str(out), "--groups", "subject",
-                 "--copies", "1"]) == 0
-    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert summary["pictures"] == int(keep.sum()) and summary["c"] in rp.C_CHOICES
-    model = read_posture_model(out)
-    assert model.meta["picture_size"] == [100, 100] and model.meta["copies"] == 1
-    # the other students' pictures
-    data = rp.load_postures(DATA)
-    others = tmp_path / "others.npz"
-    held = data.subject >= 100
-    np.savez(others, image=data.image[held], label=data.label[held])
-    assert main(["classify-posture", str(out), str(others), "--json"]) == 0
-    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert report["pictures"] == int(held.sum())
-    assert report["accuracy"] > 0.8
-    confusion = np.array(report["confusion"])
-    assert confusion.shape == (10, 11) and confusion.sum() == held.sum()
-    assert report["accuracy"] == pytest.approx(np.trace(confusion) / confusion.sum())
-    assert set(report["per_class"]) == set(rp.ASL_NAMES)
+def test_features_of_the_registers():
+    polar = [0, 4, 8, 0]
+    features = posture_features(polar, band_sum=[6, 0], band_rows=[3, 0], band_max=[4, 0],
+                                width=2)
+    assert features.tolist() == [0, 1, 2, 0, 2, 4, 0, 0]
+    assert not posture_features(polar, [6, 0], [3, 0], [4, 0], width=0).any()
 
 
 def _bad_model(tmp_path, change):
@@ -121,12 +41,22 @@ def _bad_model(tmp_path, change):
     (lambda d: d.update(mean=[0]), r"mean must be finite numbers of shape \(2,\)"),
     (lambda d: d.update(min_votes=3), r"min_votes must be an integer in \[0, 1\]"),
     (lambda d: d.update(gamma="x"), r"gamma must be a number"),
+    (lambda d: d.update(class_names=[[1], [2]]), "class_names must be at least 2 unique"),
+    (lambda d: d.update(n_support=[10 ** 20, 1]), r"n_support must be 2 integers"),
+    (lambda d: d.update(mean=[10 ** 400, 0]), "mean must be numbers"),
+    (lambda d: d.update(mean=["1", 0]), "mean must be numbers"),
+    (lambda d: d.update(dual_coef="x"), "dual_coef must be numbers"),
+    (lambda d: d.update(meta={"picture_size": 16}), "meta picture_size must be"),
+    (lambda d: d.update(meta={"picture_size": [16]}), "meta picture_size must be"),
 ])
 def test_model_file_checks(tmp_path, change, message):
     path = _bad_model(tmp_path, change)
     if message is None:
         model = read_posture_model(path)
         assert model.classify([1.0, 0.0]) == "a" and model.classify([0.0, 1.0]) == "b"
+        assert PostureModel.from_dict(model.to_dict()).classify([0.9, 0.2]) == "a"
+        with pytest.raises(ValueError, match=r"rows of 2 numbers, got shape \(1, 3\)"):
+            model.decide([1.0, 0.0, 0.0])
         return
     with pytest.raises(ValueError, match=message) as info:
         read_posture_model(path)

@@ -29,7 +29,11 @@ def run(args) -> int:
     from recognition import posture as rp
     from sw_hps.posture import read_posture_model
 
+    from sim.model.posture import FEATURES
     model = read_posture_model(args.model)
+    if model.features != FEATURES:
+        raise ValueError(f"{args.model}: features must be {FEATURES} (the descriptor's), "
+                         f"got {model.features}")
     data = rp.load_postures(args.data)
     size = model.meta.get("picture_size")
     if size is not None and list(data.image.shape[1:3]) != list(size):

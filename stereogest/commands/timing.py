@@ -111,14 +111,16 @@ def min_fmax(runs: list) -> dict:
 
 def source_commit() -> dict | None:
     """The git commit of the checkout the hardware was built from, and whether
-    its tracked files differed from it (None outside a git checkout)."""
+    the tracked sources the hardware is built from (``hdl/``, ``soc/``,
+    ``sim/``) differed from it (None outside a git checkout)."""
     import subprocess
     from pathlib import Path
     root = Path(__file__).resolve().parents[2]
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
                              text=True, timeout=60)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                "hdl", "soc", "sim"],
                                cwd=root, capture_output=True, text=True, timeout=60)
     except (OSError, subprocess.SubprocessError):
         return None
