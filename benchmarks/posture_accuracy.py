@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from recognition import posture as rp  # noqa: E402
+from recognition.evaluation import confusion_matrix  # noqa: E402
 
 DATA = ROOT / "data" / "hand_postures" / "sign_language_digits_dev.npz"
 
@@ -71,9 +72,7 @@ def main(argv=None) -> int:
               flush=True)
     decided = np.concatenate(decisions)
     truth = np.tile(data.label, args.repeats)
-    n = len(data.class_names)
-    confusion = np.zeros((n, n), np.int64)
-    np.add.at(confusion, (truth, decided), 1)
+    confusion = confusion_matrix(truth, decided, len(data.class_names))
     per_class = {name: float(confusion[k, k] / confusion[k].sum())
                  for k, name in enumerate(data.class_names)}
     report = {"data": str(args.data), "pictures": len(data),

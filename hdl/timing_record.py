@@ -155,8 +155,9 @@ def render_table(rec: dict) -> str:
                       for c in rec["commits"]})
     tools = rec["tools"] or {}
     lines += ["", f"Measured on commit {', '.join(commits)} ('+': with changes to hdl/, "
-              f"soc/ or sim/ not yet committed) with {tools.get('yosys', '?')} and {tools.get('nextpnr', '?')} "
-              f"({rec['device']}, {rec['width']}x{rec['height']}); `make timing`."]
+              f"soc/ or sim/ not yet committed) with {tools.get('yosys', '?')} and "
+              f"{tools.get('nextpnr', '?')} ({rec['device']}, {rec['width']}x{rec['height']}); "
+              "`make timing`."]
     return "\n".join(lines)
 
 
@@ -228,11 +229,13 @@ def main(argv=None) -> int:
                 readme = replace_table(Path(args.readme).read_text(), render_table(rec))
             except OSError as exc:
                 raise ValueError(f"--readme: {args.readme}: {exc.strerror}") from None
+        # both outputs tried before either is written: nothing half-written
+        from stereogest.commands import check_output_file
+        check_output_file(args.output, "--output")
+        if readme is not None:
+            check_output_file(args.readme, "--readme")
         from sim.atomic import write_text_atomic
-        try:
-            write_text_atomic(args.output, json.dumps(rec, indent=1) + "\n")
-        except OSError as exc:
-            raise ValueError(f"--output: {args.output}: {exc.strerror}") from None
+        write_text_atomic(args.output, json.dumps(rec, indent=1) + "\n")
         if readme is not None:
             write_text_atomic(args.readme, readme)
     except ValueError as exc:

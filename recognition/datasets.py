@@ -102,15 +102,13 @@ class TrajectorySet:
                    None if subjects is None else np.asarray(list(subjects), dtype=np.int64))
 
 
-def load_trajectories(path) -> TrajectorySet:
-    """Read and validate a trajectory ``.npz``; ``ValueError`` (one line) names the key.
-
-    Integer labels become ``class_names[label]``; ``writer`` is the subject of a
-    file without ``subject`` (UCI pendigits)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such dataset file: {path}")
+def read_npz(path) -> dict:
+    """The named arrays of an ``.npz`` file (``allow_pickle=False``);
+    ``ValueError`` (one line) names the file, or the key that cannot be read,
+    for a .npy named .npz, a broken archive or a pickled array."""
     import zipfile
+    import zlib
+    path = Path(path)
     try:
         data = np.load(path, allow_pickle=False)
         if not isinstance(data, np.lib.npyio.NpzFile):      # a .npy named .npz
@@ -122,12 +120,24 @@ def load_trajectories(path) -> TrajectorySet:
                     arrays[key] = data[key]
                 except ValueError as exc:  # e.g. a pickled object array
                     raise ValueError(f"{path}: {key}: cannot be read ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise ValueError(f"{path}: not a readable .npz file ({exc})") from None
     except ValueError as exc:
         if str(exc).startswith(str(path)):
             raise
         raise ValueError(f"{path}: not a readable .npz file ({exc})") from None
+    return arrays
+
+
+def load_trajectories(path) -> TrajectorySet:
+    """Read and validate a trajectory ``.npz``; ``ValueError`` (one line) names the key.
+
+    Integer labels become ``class_names[label]``; ``writer`` is the subject of a
+    file without ``subject`` (UCI pendigits)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such dataset file: {path}")
+    arrays = read_npz(path)
     missing = [k for k in ("points", "offsets", "label") if k not in arrays]
     if missing:
         raise ValueError(f"{path}: missing key(s) {', '.join(missing)} "

@@ -18,8 +18,6 @@ cross-validation over the training subjects (:func:`choose_c`).
 """
 from __future__ import annotations
 
-import zipfile
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -63,23 +61,11 @@ def load_postures(path) -> PostureSet:
     """A DATA.npz of pictures: ``image`` (N x H x W x 3 uint8 RGB), ``label``
     (ints, indexing ``class_names`` if given, else 0-9 as ``asl0`` ...
     ``asl9``), optional ``subject``. ``ValueError`` names the file and the key."""
+    from recognition.datasets import read_npz
     path = Path(path)
-    try:
-        loaded = np.load(path, allow_pickle=False)
-        if not isinstance(loaded, np.lib.npyio.NpzFile):
-            raise ValueError("a single array, not an archive")
-        with loaded as f:
-            arrays = {k: f[k] for k in f.files}
-    except FileNotFoundError:
-        raise ValueError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise ValueError(f"{path}: is a folder, not a .npz of pictures") from None
-    except (OSError, ValueError, EOFError, KeyError) as error:
-        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
-        raise ValueError(f"{path}: not a readable .npz of pictures ({reason})") from None
-    except (zipfile.BadZipFile, zlib.error):
-        raise ValueError(f"{path}: not a readable .npz of pictures (a broken archive)") \
-            from None
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file")
+    arrays = read_npz(path)
     for key in ("image", "label"):
         if key not in arrays:
             raise ValueError(f"{path}: has no '{key}' array (a DATA.npz of pictures needs "
@@ -117,12 +103,13 @@ def load_postures(path) -> PostureSet:
 def picture_hand(image) -> np.ndarray:
     """The hand mask of an RGB picture as the pipeline makes it (skin AND an
     all-in band): bool H x W. An odd width loses its last column (4:2:2)."""
-    from sim.footage import bgr_to_ycbcr
+    from sim.footage import frame_to_422
     from sim.model.segmentation import skin_mask
-    from sim.model.ycbcr import ycbcr422_to_444, ycbcr444_to_422
+    from sim.model.ycbcr import ycbcr422_to_444
     image = np.asarray(image)
-    even = image[:, :image.shape[1] // 2 * 2, ::-1]
-    _, cb, cr = ycbcr422_to_444(ycbcr444_to_422(*bgr_to_ycbcr(np.ascontiguousarray(even))))
+    height, width = image.shape[0], image.shape[1] // 2 * 2
+    bgr = np.ascontiguousarray(image[:, :width, ::-1])
+    _, cb, cr = ycbcr422_to_444(frame_to_422(bgr, width, height))
     return skin_mask(cb, cr)
 
 
@@ -208,19 +195,19 @@ def train_posture(features, labels, class_names, *, c: float,
 
 
 def _group_folds(groups, folds: int, shuffle: int | None = None):
-    """``folds`` (train, test) index pairs, whole groups apart, groups dealt
-    round-robin in sorted order of their ids (or in an order shuffled by the
-    seed ``shuffle``)."""
-    ids = np.unique(groups)
-    if len(ids) < folds:
+    """``folds`` (train, test) index pairs, whole groups apart
+    (:func:`recognition.recogniser.fold_of_groups`: dealt in sorted order of
+    their ids, or in an order shuffled by the seed ``shuffle``)."""
+    from recognition.recogniser import fold_of_groups
+    distinct, inverse = np.unique(groups, return_inverse=True)
+    if len(distinct) < folds:
         raise ValueError(f"cross-validation needs at least {folds} groups (subjects, or "
-                         f"pictures without --groups), got {len(ids)}")
-    if shuffle is not None:
-        ids = np.random.default_rng(shuffle).permutation(ids)
-    fold_of = {g: k % folds for k, g in enumerate(ids)}
-    assignment = np.array([fold_of[g] for g in groups])
-    return [(np.nonzero(assignment != k)[0], np.nonzero(assignment == k)[0])
-            for k in range(folds)]
+                         f"pictures without --groups), got {len(distinct)}")
+    if shuffle is not None:     # the group order[k] dealt k-th
+        order = np.random.default_rng(shuffle).permutation(len(distinct))
+        inverse = np.argsort(order)[inverse]
+    fold = fold_of_groups(None, inverse, folds)
+    return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(folds)]
 
 
 def choose_c(features, labels, groups, class_names, *, augmented, augmented_labels,

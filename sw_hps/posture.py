@@ -17,7 +17,6 @@ refused; 0 refuses none) and ``meta`` (how it was trained).
 from __future__ import annotations
 
 import base64
-import json
 
 import numpy as np
 
@@ -227,14 +226,8 @@ class PostureModel:
 def read_posture_model(path) -> PostureModel:
     """The model in the file ``path``; ``ValueError`` with one line naming the
     file and the field."""
-    try:
-        with open(str(path), encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as error:
-        raise ValueError("{}: cannot read ({})".format(path, error.strerror or error)) \
-            from None
-    except (UnicodeDecodeError, json.JSONDecodeError):
-        raise ValueError("{}: not a JSON posture model".format(path)) from None
+    from sw_hps.model_format import read_json
+    data = read_json(path)
     try:
         return PostureModel.from_dict(data)
     except ValueError as error:

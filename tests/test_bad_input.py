@@ -317,6 +317,8 @@ CASES = [
     case("train-posture", f"{IN}/postures.npz", "-o", f"{OUT}/p.json", "--copies", "33",
          match="--copies must be an integer in 0..32, got 33"),
     case("train-posture", f"{IN}/postures.npz", "-o", f"{IN}/adir", match="--output"),
+    case("train-posture", f"{IN}/postures.npz", "-o", f"{OUT}/p.json", "--seed", "-1",
+         match="--seed"),
     case("train-posture", f"{IN}/postures.npz", "-o", f"{OUT}/p.json", "--groups", "writer",
          match="argument --groups"),
     case("train-posture", f"{IN}/nope.npz", "-o", f"{OUT}/p.json", match="nope.npz: no such"),
@@ -337,7 +339,7 @@ CASES = [
     # ------------------------------------------------------------ classify-posture
     case("classify-posture", f"{IN}/nope.json", f"{IN}/postures.npz", match="nope.json"),
     case("classify-posture", f"{IN}/text.json", f"{IN}/postures.npz",
-         match="text.json: not a JSON posture model"),
+         match="text.json: not valid JSON"),
     case("classify-posture", str(MODEL), f"{IN}/postures.npz",
          match="gestures7.json: format must be 'stereogest-posture'"),
     case("classify-posture", f"{IN}/posture_v9.json", f"{IN}/postures.npz",

@@ -27,6 +27,7 @@ def run(args) -> int:
     import numpy as np
 
     from recognition import posture as rp
+    from recognition.evaluation import confusion_matrix
     from sw_hps.posture import read_posture_model
 
     from sim.model.posture import FEATURES
@@ -46,9 +47,7 @@ def run(args) -> int:
                          f"{args.model} ({', '.join(model.class_names)})")
     truth = np.array([model.class_names.index(data.class_names[k]) for k in data.label])
     decided = model.decide(rp.still_features(rp.picture_masks(data, args.data)))
-    n = len(model.class_names)
-    confusion = np.zeros((n, n + 1), np.int64)
-    np.add.at(confusion, (truth, np.where(decided < 0, n, decided)), 1)
+    confusion = confusion_matrix(truth, decided, len(model.class_names))
     present = confusion.sum(axis=1) > 0
     report = {"model": str(args.model), "data": str(args.data), "pictures": len(data),
               "accuracy": float(np.mean(decided == truth)),

@@ -42,9 +42,11 @@ def run(args) -> int:
     from recognition import posture as rp
     from sim.atomic import write_text_atomic
 
+    from sim.model.validation import check_int
     lo, hi = _COPIES_RANGE
     if not lo <= args.copies <= hi:
         raise ValueError(f"--copies must be an integer in {lo}..{hi}, got {args.copies}")
+    check_int("--seed", args.seed, 0, 2 ** 63 - 1)
     check_output_file(args.output)
     data = rp.load_postures(args.data)
     if args.groups == "subject" and data.subject is None:
