@@ -29,6 +29,8 @@ __all__ = [
     "CTRL_READABLE_MASK", "CTRL_STREAM", "DATO_X_FLAG", "DATO_Y_PRESENT",
     "UART_TXDATA", "UART_STATUS", "UART_RXDATA", "UART_SPAN", "UART_STATUS_TX_READY",
     "UART_STATUS_RX_VALID",
+    "POSTURE_SECTORS", "POSTURE_RING_EDGES_16THS", "POSTURE_RINGS", "POSTURE_BANDS",
+    "POSTURE_BAND_SPAN", "POSTURE_WORDS", "POSTURE_WORD_COUNT", "posture_word_offsets",
 ]
 
 #: Access kinds of registers and fields: read (a read may pop), write, read/write,
@@ -248,6 +250,46 @@ UART_RXDATA = UART_REGISTERS["RXDATA"].offset
 UART_SPAN = UART_REGISTERS.span
 UART_STATUS_TX_READY = UART_REGISTERS["STATUS"]["TX_READY"].mask
 UART_STATUS_RX_VALID = UART_REGISTERS["STATUS"]["RX_VALID"].mask
+
+# ---- the posture descriptor ------------------------------------------------------
+# The hand's shape, one record per frame (sim.model.posture defines what each
+# count means; the hardware is hdl.posture_descriptor.PostureDescriptor).
+#: Angular sectors of the polar occupancy about the anchor (a multiple of 8).
+POSTURE_SECTORS = 32
+#: Ring edges as 16ths of the squared hand width: radius 0.5, 0.75, 1, 1.25 widths.
+POSTURE_RING_EDGES_16THS = (4, 9, 16, 25)
+POSTURE_RINGS = len(POSTURE_RING_EDGES_16THS) + 1
+#: Bands of the finger crossings above the anchor, each 3/16 of the hand width tall.
+POSTURE_BANDS = 8
+POSTURE_BAND_SPAN = (3, 16)
+#: The record's 32-bit words in order: (name, words, meaning). Sums take two
+#: words, low then high; ``a | b << 16`` packs two values below 2**16.
+POSTURE_WORDS = (
+    ("reference", 1, "the reference this frame is described about: x | top << 16"),
+    ("reference_width", 1, "its hand width in pixels (0: no hand, polar and bands are 0)"),
+    ("area", 1, "mask pixels"),
+    ("sum_x", 2, "sum of their x"),
+    ("sum_y", 2, "sum of their y"),
+    ("sum_xx", 2, "sum of x * x"),
+    ("sum_yy", 2, "sum of y * y"),
+    ("sum_xy", 2, "sum of x * y"),
+    ("box_x", 1, "bounding box: x_min | x_max << 16 (0 for an empty mask)"),
+    ("box_y", 1, "y_min | y_max << 16"),
+    ("band_sum", POSTURE_BANDS, "per band: the run starts of its rows"),
+    ("band_rows_max", POSTURE_BANDS, "per band: rows | the largest row's run starts << 16"),
+    ("polar", POSTURE_RINGS * POSTURE_SECTORS, "mask pixels per ring * SECTORS + sector"),
+)
+POSTURE_WORD_COUNT = sum(count for _, count, _ in POSTURE_WORDS)
+
+
+def posture_word_offsets() -> dict:
+    """The first word's index of each entry of :data:`POSTURE_WORDS`."""
+    offsets, at = {}, 0
+    for name, count, _ in POSTURE_WORDS:
+        offsets[name] = at
+        at += count
+    return offsets
+
 
 # ---- the gesture classes --------------------------------------------------------
 #: The seven gestures of thesis Fig. 16 in class order: the renderer's gestures,

@@ -20,8 +20,10 @@ import base64
 
 import numpy as np
 
+from soc.hps_interface import POSTURE_WORD_COUNT, POSTURE_WORDS, posture_word_offsets
+
 __all__ = ["POSTURE_FORMAT", "POSTURE_VERSION", "PostureModel", "posture_features",
-           "read_posture_model"]
+           "read_posture_model", "decode_posture_words", "record_features"]
 
 POSTURE_FORMAT = "stereogest-posture"
 POSTURE_VERSION = 1
@@ -40,6 +42,49 @@ def posture_features(polar, band_sum, band_rows, band_max, width):
     out[len(polar)::2] = band_sum / np.maximum(np.asarray(band_rows, dtype=float), 1.0)
     out[len(polar) + 1::2] = np.asarray(band_max, dtype=float)
     return out
+
+
+def decode_posture_words(words):
+    """One frame's posture record (the ``POSTURE_WORD_COUNT`` 32-bit words of
+    :data:`soc.hps_interface.POSTURE_WORDS`) as a dict: ``reference`` (x, top,
+    width), ``area``, the five sums, ``box`` (x_min, x_max, y_min, y_max),
+    ``band_sum``, ``band_rows``, ``band_max`` and ``polar`` (ints).
+
+    Raises ValueError for a record of another length or with a word outside
+    32 bits (a torn or garbled read)."""
+    words = [int(w) for w in words]
+    if len(words) != POSTURE_WORD_COUNT:
+        raise ValueError("a posture record has {} words, got {}".format(
+            POSTURE_WORD_COUNT, len(words)))
+    if any(not 0 <= w < 1 << 32 for w in words):
+        raise ValueError("posture record words must lie in [0, 2**32)")
+    at = posture_word_offsets()
+    count = {name: n for name, n, _ in POSTURE_WORDS}
+
+    def pair(word):
+        return word & 0xFFFF, word >> 16
+
+    def block(name):
+        return words[at[name]:at[name] + count[name]]
+
+    ref_x, top = pair(words[at["reference"]])
+    out = {"reference": (ref_x, top, words[at["reference_width"]]),
+           "area": words[at["area"]],
+           "box": pair(words[at["box_x"]]) + pair(words[at["box_y"]]),
+           "band_sum": block("band_sum"),
+           "band_rows": [pair(w)[0] for w in block("band_rows_max")],
+           "band_max": [pair(w)[1] for w in block("band_rows_max")],
+           "polar": block("polar")}
+    for name in ("sum_x", "sum_y", "sum_xx", "sum_yy", "sum_xy"):
+        low, high = block(name)
+        out[name] = low | high << 32
+    return out
+
+
+def record_features(record):
+    """The classifier's input from a decoded record (:func:`decode_posture_words`)."""
+    return posture_features(record["polar"], record["band_sum"], record["band_rows"],
+                            record["band_max"], record["reference"][2])
 
 
 def _numbers(value):

@@ -36,6 +36,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from soc.hps_interface import (POSTURE_BAND_SPAN, POSTURE_BANDS, POSTURE_RING_EDGES_16THS,
+                               POSTURE_RINGS, POSTURE_SECTORS, POSTURE_WORD_COUNT,
+                               posture_word_offsets)
 from sw_hps.posture import posture_features as board_features
 
 from .morphology import opening
@@ -44,17 +47,16 @@ from .validation import check_bool_image
 __all__ = ["SECTORS", "RINGS", "RING_EDGES_16THS", "BANDS", "BAND_SPAN", "FEATURES",
            "PostureReference", "PostureRegisters", "posture_mask", "posture_registers",
            "posture_reference", "posture_features", "describe_still", "sector_of",
+           "posture_words",
            "TAN_Q", "TANGENTS"]
 
-#: Angular sectors of the polar occupancy (a multiple of 8).
-SECTORS = 32
-#: Ring edges as 16ths of the squared hand width: radius 0.5, 0.75, 1, 1.25 W.
-RING_EDGES_16THS = (4, 9, 16, 25)
-RINGS = len(RING_EDGES_16THS) + 1
-#: Bands of the finger crossings, and their span above the anchor as a fraction
-#: of W: band b holds the rows with 3 W b <= 16 (anchor row - y) < 3 W (b + 1).
-BANDS = 8
-BAND_SPAN = (3, 16)     # 1.5 W over 8 bands: 3/16 W per band
+# The descriptor's geometry is what the FPGA and the board agree on.
+SECTORS = POSTURE_SECTORS
+RING_EDGES_16THS = POSTURE_RING_EDGES_16THS
+RINGS = POSTURE_RINGS
+#: Band b holds the rows with 3 W b <= 16 (anchor row - y) < 3 W (b + 1).
+BANDS = POSTURE_BANDS
+BAND_SPAN = POSTURE_BAND_SPAN     # 1.5 W over 8 bands: 3/16 W per band
 #: Fraction bits of the tangent table.
 TAN_Q = 12
 #: tan(j * 360 / SECTORS degrees) in Q12 for j = 1 .. SECTORS / 8 - 1: the
@@ -199,3 +201,28 @@ def describe_still(hand) -> tuple[PostureRegisters, np.ndarray]:
     reference = posture_reference(posture_registers(mask, empty))
     registers = posture_registers(mask, reference)
     return registers, posture_features(registers, reference)
+
+
+def posture_words(registers: PostureRegisters, reference: PostureReference) -> list:
+    """The frame's record as the hardware sends it: the 32-bit words of
+    :data:`soc.hps_interface.POSTURE_WORDS` (``POSTURE_WORD_COUNT`` of them)."""
+    at = posture_word_offsets()
+    words = [0] * POSTURE_WORD_COUNT
+    mask = (1 << 32) - 1
+
+    def pair(low, high):
+        return low | high << 16
+
+    words[at["reference"]] = pair(reference.x, reference.top)
+    words[at["reference_width"]] = reference.width
+    words[at["area"]] = registers.area
+    for name in ("sum_x", "sum_y", "sum_xx", "sum_yy", "sum_xy"):
+        value = getattr(registers, name)
+        words[at[name]:at[name] + 2] = [value & mask, value >> 32]
+    words[at["box_x"]] = pair(registers.x_min, registers.x_max)
+    words[at["box_y"]] = pair(registers.y_min, registers.y_max)
+    words[at["band_sum"]:at["band_sum"] + BANDS] = registers.band_sum
+    words[at["band_rows_max"]:at["band_rows_max"] + BANDS] = [
+        pair(rows, top) for rows, top in zip(registers.band_rows, registers.band_max)]
+    words[at["polar"]:] = registers.polar
+    return [int(w) for w in words]
