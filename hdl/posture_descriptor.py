@@ -72,7 +72,7 @@ class PostureDescriptor(wiring.Component):
     o_stream : payload ``{index: 8, word: 32}`` (always ready)
         The frame's record, :data:`soc.hps_interface.POSTURE_WORDS` in order
         (``index`` 0 .. ``POSTURE_WORD_COUNT - 1``), on consecutive cycles, the
-        first ``PIXEL_STAGES + 2`` cycles after the beat of the frame's last
+        first ``PIXEL_STAGES + 3`` cycles after the beat of the frame's last
         pixel: :func:`sim.model.posture.posture_words` of the frame about the
         previous frame's reference (none after reset).
 
@@ -379,16 +379,28 @@ class PostureDescriptor(wiring.Component):
             scalar[at["band_rows_max"] + b] = Cat(band_rows[b],
                                                   Const(0, 16 - len(band_rows[b])), band_max[b])
         assert sorted(scalar) == list(range(polar_at))
-        word = Signal(WORD_BITS, name="word")
-        with m.Switch(index):
-            for i, value in scalar.items():
-                with m.Case(i):
-                    m.d.comb += word.eq(value)
-            with m.Default():
-                m.d.comb += word.eq(counters[0])
+        # two cycles: a word of each group of 8 scalars, then the group (routed,
+        # one multiplexer of all the scalars was 10 logic levels)
+        groups_of = [sorted(i for i in scalar if i // 8 == g) for g in range(-(-polar_at // 8))]
+        picked = [Signal(WORD_BITS, name=f"scalar_group{g}") for g in range(len(groups_of))]
+        for g, members in enumerate(groups_of):
+            with m.Switch(index[:3]):
+                for i in members:
+                    with m.Case(i % 8):
+                        m.d.sync += picked[g].eq(scalar[i])
+        polar_word = Signal(cb, name="polar_word")
+        picked_index = Signal.like(index, name="picked_index")
+        picked_valid = Signal(name="picked_valid")
+        m.d.sync += [polar_word.eq(counters[0]), picked_index.eq(index),
+                     picked_valid.eq(sending)]
+        group_word = Signal(WORD_BITS, name="group_word")
+        with m.Switch(picked_index[3:]):
+            for g in range(len(picked)):
+                with m.Case(g):
+                    m.d.comb += group_word.eq(picked[g])
         out = self.o_stream
-        m.d.sync += [out.valid.eq(sending), out.payload.index.eq(index),
-                     out.payload.word.eq(word)]
+        m.d.sync += [out.valid.eq(picked_valid), out.payload.index.eq(picked_index),
+                     out.payload.word.eq(Mux(picked_index < polar_at, group_word, polar_word))]
         finished = Signal(name="record_finished")
         m.d.sync += finished.eq(0)
         with m.If(done):

@@ -5,7 +5,7 @@ Layout of a clip directory::
     clip.json   metadata (see :data:`REQUIRED_FIELDS` and :data:`TRUTH_FIELDS`)
     left.npy    (frames, height, 2*width) uint8, the left camera's YCbCr 4:2:2 stream
     right.npy   (frames, height, 2*width) uint8, the right camera's stream
-    truth.csv   frame,hand_x,hand_y,hand_area,moving (rendered clips only)
+    truth.csv   frame,hand_x,hand_y,hand_area,moving[,posture] (rendered clips only)
 
 A rendered clip (``stereogest render``) knows its truth: ``gesture``, the
 :data:`TRUTH_FIELDS` and ``truth.csv``. A rendered sequence (``render
@@ -45,10 +45,12 @@ from pathlib import Path
 import numpy as np
 
 from sim.distractors import DISTRACTOR_KINDS
+from sim.hand_postures import POSTURE_NAMES
 from sim.gesture_shapes import GESTURE_NAMES
 
 __all__ = [
     "CLIP_FORMAT", "CLIP_VERSION", "PIXEL_FORMAT", "MAX_DISPARITY", "TRUTH_HEADER",
+    "POSTURE_TRUTH_HEADER",
     "REQUIRED_FIELDS", "TRUTH_FIELDS", "Clip", "save_clip", "check_clip_target", "load_clip",
     "is_clip_dir",
     "round_truth",
@@ -60,6 +62,8 @@ PIXEL_FORMAT = "YCbCr 4:2:2, bytes Y0 Cb Y1 Cr"
 #: Number of disparities of the matcher (d in 0..47).
 MAX_DISPARITY = 48
 TRUTH_HEADER = ("frame", "hand_x", "hand_y", "hand_area", "moving")
+#: ``truth.csv``'s header when the clip records the hand's posture per frame.
+POSTURE_TRUTH_HEADER = TRUTH_HEADER + ("posture",)
 #: Keys every ``clip.json`` holds. Optional: ``gesture`` (required with the
 #: truth), ``renderer`` and ``source`` (free-form objects).
 REQUIRED_FIELDS = ("format", "version", "width", "height", "frames", "fps", "pixel_format")
@@ -117,6 +121,10 @@ class Clip:
     distractors : tuple of (str, int, int), optional
         A rendered sequence with non-gesture motion: every distractor's kind
         and span (first, last), in order, none overlapping a gesture.
+    postures : tuple of str, optional
+        The hand's posture in each frame (:data:`sim.hand_postures.POSTURE_NAMES`);
+        ``clip.json`` keeps it as runs (``postures``: ``{"posture", "frames"}``),
+        ``truth.csv`` per frame.
     renderer : dict
         Extra JSON-serialisable metadata (renderer parameters).
     source : dict
@@ -135,6 +143,7 @@ class Clip:
     hand_area: np.ndarray | None = None
     sequence: tuple | None = None
     distractors: tuple | None = None
+    postures: tuple | None = None
     renderer: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
 
@@ -189,6 +198,8 @@ class Clip:
         if self.distractors is not None:
             meta["distractors"] = [{"kind": k, "frames": [int(a), int(b)]}
                                    for k, a, b in self.distractors]
+        if self.postures is not None:
+            meta["postures"] = _posture_runs(self.postures)
         if self.renderer:
             meta["renderer"] = self.renderer
         if self.source:
@@ -274,7 +285,32 @@ def _check_metadata(meta, where: str) -> dict:
         _check_sequence(meta, bad)
     if "distractors" in meta:
         _check_distractors(meta, bad)
+    if "postures" in meta:
+        spans = _rising_spans(meta["postures"], "posture", POSTURE_NAMES, "frames", 0,
+                              meta["frames"] - 1) \
+            if isinstance(meta["postures"], list) and truth else None
+        if not spans or spans[0][0] != 0 or spans[-1][1] != meta["frames"] - 1 or any(
+                b[0] != a[1] + 1 for a, b in zip(spans, spans[1:])):
+            raise bad("postures", "a list of {\"posture\": NAME, \"frames\": [first, last]} "
+                                  "covering every frame in order (a rendered clip's); NAME "
+                                  "one of " + ", ".join(POSTURE_NAMES))
     return meta
+
+
+def _posture_runs(postures) -> list:
+    """Per-frame posture names as runs ``{"posture", "frames": [first, last]}``."""
+    runs = []
+    for frame, name in enumerate(postures):
+        if runs and runs[-1]["posture"] == name:
+            runs[-1]["frames"][1] = frame
+        else:
+            runs.append({"posture": str(name), "frames": [frame, frame]})
+    return runs
+
+
+def _posture_frames(runs) -> tuple:
+    return tuple(run["posture"] for run in runs
+                 for _ in range(run["frames"][1] - run["frames"][0] + 1))
 
 
 def _rising_spans(entries, name_key: str, names, span_key: str, lo: int, hi: int):
@@ -357,10 +393,12 @@ def is_clip_dir(path) -> bool:
 
 def _truth_text(clip: Clip) -> str:
     out = io.StringIO()
-    out.write(",".join(TRUTH_HEADER) + "\n")
+    postures = clip.postures
+    out.write(",".join(TRUTH_HEADER if postures is None else POSTURE_TRUTH_HEADER) + "\n")
     for frame, ((x, y), area, moving) in enumerate(
             zip(clip.hand_xy, clip.hand_area, clip.moving)):
-        out.write(f"{frame},{x:.2f},{y:.2f},{int(area)},{int(moving)}\n")
+        tail = "" if postures is None else f",{postures[frame]}"
+        out.write(f"{frame},{x:.2f},{y:.2f},{int(area)},{int(moving)}{tail}\n")
     return out.getvalue()
 
 
@@ -473,14 +511,16 @@ def _load_array(path: Path, expected_shape: tuple[int, ...], mmap: bool) -> np.n
     return np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
 
 
-def _load_truth(path: Path, frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _load_truth(path: Path, frames: int, postures: tuple | None):
     name = path.name
     if not path.is_file():
         raise ValueError(f"{name}: missing file in clip {path.parent}")
     with open(path, encoding="utf-8", newline="") as fh:
         rows = list(csv.reader(fh))
-    if not rows or tuple(cell.strip() for cell in rows[0]) != TRUTH_HEADER:
-        raise ValueError(f"{name}: header must be {','.join(TRUTH_HEADER)}")
+    header = TRUTH_HEADER if postures is None else POSTURE_TRUTH_HEADER
+    if not rows or tuple(cell.strip() for cell in rows[0]) != header:
+        raise ValueError(f"{name}: header must be {','.join(header)}"
+                         + ("" if postures is None else " (clip.json has postures)"))
     rows = [row for row in rows[1:] if row]
     if len(rows) != frames:
         raise ValueError(f"{name}: has {len(rows)} rows, clip.json field 'frames' is {frames}")
@@ -489,9 +529,9 @@ def _load_truth(path: Path, frames: int) -> tuple[np.ndarray, np.ndarray, np.nda
     moving = np.empty(frames, dtype=bool)
     for index, row in enumerate(rows):
         line = index + 2
-        if len(row) != len(TRUTH_HEADER):
+        if len(row) != len(header):
             raise ValueError(f"{name}: line {line} has {len(row)} fields, expected "
-                             f"{len(TRUTH_HEADER)}")
+                             f"{len(header)}")
         column = "frame"
         try:
             if int(row[0]) != index:
@@ -507,11 +547,16 @@ def _load_truth(path: Path, frames: int) -> tuple[np.ndarray, np.ndarray, np.nda
             if row[4].strip() not in ("0", "1"):
                 raise ValueError("not 0 or 1")
             moving[index] = row[4].strip() == "1"
+            if postures is not None:
+                column = "posture"
+                if row[5].strip() != postures[index]:
+                    raise ValueError(f"{name}: line {line}: field 'posture' must be "
+                                     f"{postures[index]} (clip.json's postures), got {row[5]!r}")
         except ValueError as exc:
             if str(exc).startswith(name):
                 raise
             raise ValueError(f"{name}: line {line}: bad field '{column}': "
-                             f"{row[TRUTH_HEADER.index(column)]!r}") from None
+                             f"{row[header.index(column)]!r}") from None
     return hand_xy, hand_area, moving
 
 
@@ -557,7 +602,8 @@ def load_clip(path, mmap: bool = True) -> Clip:
                              f"({', '.join(TRUTH_FIELDS)})")
         return Clip(fps=meta["fps"], left=left, right=right, gesture=meta.get("gesture"),
                     renderer=meta.get("renderer", {}), source=meta.get("source", {}))
-    hand_xy, hand_area, moving = _load_truth(root / _TRUTH, meta["frames"])
+    postures = _posture_frames(meta["postures"]) if "postures" in meta else None
+    hand_xy, hand_area, moving = _load_truth(root / _TRUTH, meta["frames"], postures)
 
     clip = Clip(gesture=meta.get("gesture"), seed=meta["seed"], fps=meta["fps"],
                 hand_disparity=meta["hand_disparity"],
@@ -567,7 +613,7 @@ def load_clip(path, mmap: bool = True) -> Clip:
                 sequence=tuple((e["gesture"], *e["motion_frames"]) for e in meta["sequence"])
                 if "sequence" in meta else None,
                 distractors=tuple((e["kind"], *e["frames"]) for e in meta["distractors"])
-                if "distractors" in meta else None,
+                if "distractors" in meta else None, postures=postures,
                 renderer=meta.get("renderer", {}), source=meta.get("source", {}))
     _check_truth_arrays(hand_xy, hand_area, clip.frames, _TRUTH)
     mismatch = np.flatnonzero(moving != clip.moving)

@@ -48,6 +48,7 @@ from sim.clip import MAX_DISPARITY, Clip, round_truth
 from sim.difficulties import Difficulties, camera_gains
 from sim.distractors import DISTRACTOR_KINDS, check_kind, distractor_motion
 from sim.gesture_shapes import GESTURE_NAMES, gesture_id, gesture_path, random_time_warp
+from sim.hand_postures import DEFAULT_POSTURE, FINGERS, POSTURES, ROLL_RANGE, resolve_posture
 from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
 
@@ -86,6 +87,9 @@ _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = 
 _STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE, _STREAM_FOREARM = 6, 7, 8, 9
 _STREAM_CLUTTER, _STREAM_INTRUDER, _STREAM_SEQUENCE = 10, 11, 12
 _STREAM_DISTRACTOR = 13
+_STREAM_POSTURE, _STREAM_ROLL = 14, 15
+#: Most a hand's roll changes from one frame to the next, and from the clip's.
+_ROLL_STEP, _ROLL_WOBBLE = 1, 3
 #: ``gesture_id`` of a distractor scene's random streams: this plus its index
 #: (apart from the gestures' 0..6).
 _DISTRACTOR_ID = 1000
@@ -187,6 +191,30 @@ def _to_u8(values: np.ndarray) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- layers
 
+class _Sprite(NamedTuple):
+    """The hand as drawn: mask, the two cameras' (Y, Cb, Cr) planes, and the
+    offset (y, x) of its top-left pixel from the palm centre."""
+    mask: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    offset: tuple
+
+
+def _turn(mask, ycc, centre, degrees):
+    """``mask`` (h, w) and ``ycc`` (3, h, w) turned by ``degrees`` anticlockwise
+    as seen (y down) about ``centre`` (row, column), nearest pixel, same size."""
+    h, w = mask.shape
+    angle = math.radians(degrees)
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    dy, dx = ys - centre[0], xs - centre[1]
+    # the source of each output pixel: the inverse turn
+    src_x = np.rint(centre[1] + math.cos(angle) * dx - math.sin(angle) * dy).astype(np.int64)
+    src_y = np.rint(centre[0] + math.sin(angle) * dx + math.cos(angle) * dy).astype(np.int64)
+    inside = (src_x >= 0) & (src_x < w) & (src_y >= 0) & (src_y < h)
+    sx, sy = np.clip(src_x, 0, w - 1), np.clip(src_y, 0, h - 1)
+    return mask[sy, sx] & inside, ycc[:, sy, sx]
+
+
 class _Intruder(NamedTuple):
     """The intruder ball: radius, centre x per frame (NaN out of view), centre y,
     disparity and texture."""
@@ -270,7 +298,8 @@ class StereoScene:
                  face_disparity: int = 24, torso_disparity: int = 28,
                  background_disparity: int | None = None, n_pre_rest: int | None = None,
                  n_motion: int | None = None, n_post_rest: int | None = None,
-                 noise: bool = True, difficulties: Difficulties | None = None) -> None:
+                 noise: bool = True, difficulties: Difficulties | None = None,
+                 posture: str | None = None, roll: int | None = None) -> None:
         if difficulties is not None and not isinstance(difficulties, Difficulties):
             raise ValueError(f"difficulties must be a sim.difficulties.Difficulties, got "
                              f"{type(difficulties).__name__}")
@@ -304,8 +333,14 @@ class StereoScene:
         self.disparities["hair"] = self.disparities["face"]
         self._layout(layout)
 
+        self.posture = None if posture is None else resolve_posture(posture)
+        self._roll = None if roll is None else check_int("roll", roll, *ROLL_RANGE)
+        if self.posture is None and roll is not None:
+            raise ValueError("roll needs a posture (the open hand of a clip without one "
+                             "is drawn upright)")
         self._build_hand_sprite()
         self._plan_motion(n_pre_rest, n_motion, n_post_rest)
+        self._plan_rolls()
         self._build_static_layers()
         hard = self.difficulties
         self._gains = camera_gains(hard, self.frames, self._rng(_STREAM_EXPOSURE,
@@ -339,41 +374,110 @@ class StereoScene:
                       0.66 * h + rng.uniform(-12, 12) * s)
 
     def _build_hand_sprite(self) -> None:
-        """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px tall
-        (times ``hand_scale``)."""
+        """The hand's sprites: without a posture one, today's open hand, for every
+        frame; with one, a sprite per roll the clip shows (built on demand), and
+        a square about the palm centre that holds all of them for planning."""
+        if self.posture is None:
+            self.roll = 0
+            self._hand_sprite = self._draw_hand(None, 0)
+            self._sprite_offset = self._hand_sprite.offset
+            self._sprite_mask = self._hand_sprite.mask
+            sprite = self._hand_sprite
+        else:
+            rng = self._rng(_STREAM_POSTURE)
+            s = self.scale * self.difficulties.hand_scale
+            # the person: palm size, finger length and width, skin tone
+            self._person = {"palm": float(rng.uniform(0.92, 1.08)),
+                            "length": float(rng.uniform(0.88, 1.12)),
+                            "width": float(rng.uniform(0.85, 1.15)),
+                            "cb": float(rng.uniform(-6, 6)), "cr": float(rng.uniform(-6, 6))}
+            self.roll = int(rng.integers(ROLL_RANGE[0], ROLL_RANGE[1] + 1)) \
+                if self._roll is None else self._roll
+            self._sprites = {}
+            radius = int(math.ceil(76 * s * 1.12)) + 2
+            self._sprite_offset = (-radius, -radius)
+            self._sprite_mask = np.ones((2 * radius + 1, 2 * radius + 1), bool)
+            sprite = self._draw_hand(self.posture, self.roll)
+        rows, cols = np.nonzero(sprite.mask)
+        self.hand_size = (int(cols.max() - cols.min() + 1), int(rows.max() - rows.min() + 1))
+
+    def _plan_rolls(self) -> None:
+        """Per frame, the hand's roll in degrees: the clip's, wandering by at most
+        ``_ROLL_STEP`` a frame and ``_ROLL_WOBBLE`` from it (0 without a posture)."""
+        self.hand_rolls = np.zeros(self.frames, np.int64)
+        if self.posture is None:
+            return
+        rng = self._rng(_STREAM_ROLL, self.gesture_id)
+        wobble = 0
+        for frame in range(self.frames):
+            wobble = int(np.clip(wobble + rng.integers(-_ROLL_STEP, _ROLL_STEP + 1),
+                                 -_ROLL_WOBBLE, _ROLL_WOBBLE))
+            self.hand_rolls[frame] = self.roll + wobble
+
+    def _sprite(self, frame: int) -> "_Sprite":
+        """The hand's sprite in ``frame``."""
+        if self.posture is None:
+            return self._hand_sprite
+        roll = int(self.hand_rolls[frame])
+        if roll not in self._sprites:
+            self._sprites[roll] = self._draw_hand(self.posture, roll)
+        return self._sprites[roll]
+
+    def _draw_hand(self, posture: str | None, roll: int) -> "_Sprite":
+        """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px
+        tall (times ``hand_scale``): the open hand without ``posture``, else that
+        posture of :data:`sim.hand_postures.POSTURES` with the person's
+        proportions, turned by ``roll`` degrees (anticlockwise as seen)."""
         s = self.scale * self.difficulties.hand_scale
         rng = self._rng(_STREAM_HAND)
-        x_lo, x_hi = math.floor(-42 * s) - 1, math.ceil(32 * s) + 1
-        y_lo, y_hi = math.floor(-60 * s) - 1, math.ceil(26 * s) + 1
+        if posture is None:
+            x_lo, x_hi = math.floor(-42 * s) - 1, math.ceil(32 * s) + 1
+            y_lo, y_hi = math.floor(-60 * s) - 1, math.ceil(26 * s) + 1
+            palm_size = length_k = width_k = 1.0
+            extension, thumb, spread = (1.0,) * 4, "out", 1.25
+        else:
+            reach = int(math.ceil(76 * s * 1.12)) + 1
+            x_lo, x_hi, y_lo, y_hi = -reach, reach, -reach, reach
+            person = self._person
+            palm_size, length_k, width_k = person["palm"], person["length"], person["width"]
+            extension, thumb, spread = POSTURES[posture]
         ys, xs = np.mgrid[y_lo:y_hi + 1, x_lo:x_hi + 1].astype(np.float32)
         shape = xs.shape
 
         shade = np.zeros(shape, np.float32)        # darkening towards the outline
-        palm_r2 = _ellipse(xs, ys, 0.0, 0.0, 24 * s, 23 * s)
+        palm_r2 = _ellipse(xs, ys, 0.0, 0.0, 24 * s * palm_size, 23 * s * palm_size)
         palm = palm_r2 <= 1.0
         shade[palm] = 24 * palm_r2[palm] ** 2
         fingers = np.zeros(shape, bool)
         creases = np.zeros(shape, bool)
-        finger_radius = max(4.6 * s, 0.8)
+        finger_radius = max(4.6 * s * width_k, 0.8)
+        tips = {}
         # index, middle, ring, little: base x, length (reference px)
-        for base_x, length in ((-15.5, 30.0), (-5.2, 34.0), (5.2, 31.0), (15.5, 25.0)):
-            base_y = -23 * math.sqrt(max(0.0, 1 - (base_x / 24) ** 2)) + 7
-            tip_x = base_x * 1.25
-            dist, t = _segment_distance(xs, ys, base_x * s, base_y * s, tip_x * s,
-                                        (base_y - length) * s)
+        for name, (base_x, length), reach in zip(
+                FINGERS, ((-15.5, 30.0), (-5.2, 34.0), (5.2, 31.0), (15.5, 25.0)), extension):
+            base_x *= palm_size
+            length *= length_k * reach
+            base_y = -23 * palm_size * math.sqrt(max(0.0, 1 - (base_x / (24 * palm_size)) ** 2)) + 7
+            tip_x = base_x * spread if reach >= 0.9 else base_x + (1 - reach) * (-12 - base_x) * 0.5
+            tips[name] = (tip_x * s, (base_y - length) * s)
+            dist, t = _segment_distance(xs, ys, base_x * s, base_y * s, *tips[name])
             inside = (dist <= finger_radius) & ~palm
             fingers |= inside
             shade[inside] = 34 * (dist[inside] / finger_radius) ** 2
             for joint in (0.45, 0.75):           # knuckle lines move with the hand
                 creases |= inside & (np.abs(t - joint) * length * s < max(0.7 * s, 0.5))
-        dist, _ = _segment_distance(xs, ys, -17 * s, 9 * s, -33 * s, -13 * s)
-        thumb = (dist <= max(6.0 * s, 1.0)) & ~palm & ~fingers
-        shade[thumb] = 30 * (dist[thumb] / max(6.0 * s, 1.0)) ** 2
+        thumb_base = (-17 * s * palm_size, 9 * s * palm_size)
+        thumb_tip = {"out": (-33 * s * palm_size, -13 * s * palm_size),
+                     "in": (-2 * s * palm_size, -4 * s * palm_size)}.get(thumb) or tips.get(thumb)
+        dist, _ = _segment_distance(xs, ys, *thumb_base, *thumb_tip)
+        thumb_radius = max(6.0 * s * width_k, 1.0)
+        thumb_mask = (dist <= thumb_radius) & ~palm & ~fingers
+        shade[thumb_mask] = 30 * (dist[thumb_mask] / thumb_radius) ** 2
         for cx, cy, radius in ((-30.0, -30.0, 34.0), (28.0, -26.0, 36.0), (-2.0, 40.0, 30.0)):
             ring = np.abs(np.hypot(xs - cx * s, ys - cy * s) - radius * s)
             creases |= palm & (palm_r2 < 0.75) & (ring < max(0.8 * s, 0.5))
 
-        mask = palm | fingers | thumb
+        mask = palm | fingers | thumb_mask
         texture = _fractal(rng, *shape, s, (10, 5, 2.5, 1), (7.0, 6.0, 6.0, 3.0))
         low = _fractal(rng, *shape, s, (16,), (1.0,))
         y_plane = 174 + texture - shade - 32 * creases
@@ -381,22 +485,24 @@ class StereoScene:
             cb0, cr0 = self.difficulties.skin_chroma()
             cb_plane = np.clip(cb0 + 3 * low, cb0 - 12, cb0 + 12)
             cr_plane = np.clip(cr0 + 3 * low, cr0 - 12, cr0 + 12)
-        else:
+        elif posture is None:
             cb_plane = np.clip(104 + 3 * low, *_SKIN_CB)
             cr_plane = np.clip(153 + 3 * low, *_SKIN_CR)
+        else:
+            cb_plane = np.clip(104 + self._person["cb"] + 3 * low, *_SKIN_CB)
+            cr_plane = np.clip(153 + self._person["cr"] + 3 * low, *_SKIN_CR)
         ycc = np.stack([y_plane, cb_plane, cr_plane]).astype(np.float32)
+        if roll:
+            mask, ycc = _turn(mask, ycc, (-y_lo, -x_lo), roll)
 
         rows, cols = np.nonzero(mask)
         top, bottom, left, right = rows.min(), rows.max(), cols.min(), cols.max()
-        self._sprite_mask = mask[top:bottom + 1, left:right + 1]
         sprite = ycc[:, top:bottom + 1, left:right + 1]
         right_sprite = sprite.copy()
         right_sprite[0] = _right_luma(right_sprite[0])
-        self._sprite_left = _to_u8(sprite)
-        self._sprite_right = _to_u8(right_sprite)
-        # Offset of the sprite's top-left pixel from the palm centre.
-        self._sprite_offset = (int(y_lo + top), int(x_lo + left))
-        self.hand_size = (int(right - left + 1), int(bottom - top + 1))   # (w, h) px
+        # offset of the sprite's top-left pixel from the palm centre
+        return _Sprite(mask[top:bottom + 1, left:right + 1], _to_u8(sprite),
+                       _to_u8(right_sprite), (int(y_lo + top), int(x_lo + left)))
 
     def _plan_motion(self, n_pre_rest, n_motion, n_post_rest) -> None:
         """Timing, amplitude, aspect and rest position; keeps the whole hand in view."""
@@ -718,9 +824,10 @@ class StereoScene:
         """View and sprite slices of the hand in a view whose layer shift is ``shift``
         (at ``anchor`` instead of the frame's palm centre, if given)."""
         ax, ay = self.hand_anchor[frame] if anchor is None else anchor
+        sprite = self._sprite(frame)
         layer = _Layer("hand", int(self.hand_disparities[frame]),
-                       int(ay) + self._sprite_offset[0], int(ax) + self._sprite_offset[1],
-                       self._sprite_mask, None)
+                       int(ay) + sprite.offset[0], int(ax) + sprite.offset[1],
+                       sprite.mask, None)
         return self._view_region(layer, shift)
 
     def views444(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
@@ -728,8 +835,9 @@ class StereoScene:
         frame = self._check_frame(frame)
         anchors = self._blur_anchors(frame) if self.difficulties.motion_blur else [None]
         views = []
-        for view, sprite, shift in (("left", self._sprite_left, 0),
-                                    ("right", self._sprite_right,
+        hand = self._sprite(frame)
+        for view, sprite, shift in (("left", hand.left, 0),
+                                    ("right", hand.right,
                                      int(self.hand_disparities[frame]))):
             total = None
             for anchor in anchors:
@@ -740,7 +848,7 @@ class StereoScene:
                 region = self._hand_region(frame, shift, anchor)
                 if region is not None:
                     (vy, vx), (ly, lx) = region
-                    mask = self._sprite_mask[ly, lx]
+                    mask = hand.mask[ly, lx]
                     image[:, vy, vx] = np.where(mask, sprite[:, ly, lx], image[:, vy, vx])
                 if len(anchors) == 1:
                     total = image
@@ -848,7 +956,7 @@ class StereoScene:
         region = self._hand_region(frame, self._check_view(view, frame))
         if region is not None:
             (vy, vx), (ly, lx) = region
-            mask[vy, vx] = self._sprite_mask[ly, lx]
+            mask[vy, vx] = self._sprite(frame).mask[ly, lx]
         return mask
 
     def label_map(self, frame: int, view: str = "left") -> np.ndarray:
@@ -887,7 +995,7 @@ class StereoScene:
         if region is None:
             return math.nan, math.nan, 0
         (vy, vx), (ly, lx) = region
-        rows, cols = np.nonzero(self._sprite_mask[ly, lx])
+        rows, cols = np.nonzero(self._sprite(frame).mask[ly, lx])
         if rows.size == 0:
             return math.nan, math.nan, 0
         return float(cols.mean() + vx.start), float(rows.mean() + vy.start), int(rows.size)
@@ -944,6 +1052,9 @@ class StereoScene:
             "motion_length": self.n_motion,
             "post_rest_frames": self.n_post_rest,
             "hand_size_px": list(self.hand_size),
+            **({"posture": self.posture, "roll_degrees": self.roll,
+                "person": {k: round(v, 4) for k, v in self._person.items()}}
+               if self.posture is not None else {}),
             "noise": self.noise,
             "noise_sigma_y": NOISE_SIGMA_Y, "noise_sigma_c": NOISE_SIGMA_C,
             "right_y_gain": RIGHT_Y_GAIN, "right_y_offset": RIGHT_Y_OFFSET,
@@ -1040,6 +1151,7 @@ def render_scene(scene: StereoScene) -> Clip:
                 hand_disparity=scene.disparities["hand"],
                 face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
                 left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
+                postures=(scene.posture or DEFAULT_POSTURE,) * scene.frames,
                 renderer=scene.parameters())
 
 
@@ -1048,7 +1160,8 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
                 face_disparity: int = 24, torso_disparity: int = 28,
                 background_disparity: int | None = None, n_pre_rest: int | None = None,
                 n_motion: int | None = None, n_post_rest: int | None = None,
-                noise: bool = True, difficulties: Difficulties | None = None) -> Clip:
+                noise: bool = True, difficulties: Difficulties | None = None,
+                posture: str | None = None, roll: int | None = None) -> Clip:
     """Render a synthetic stereo clip of one gesture (thesis Figs. 16 and 77).
 
     The parameters are those of :class:`StereoScene`. The clip's truth is the
@@ -1068,7 +1181,8 @@ def render_clip(gesture: str, seed: int, width: int = REFERENCE_WIDTH,
         gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
         face_disparity=face_disparity, torso_disparity=torso_disparity,
         background_disparity=background_disparity, n_pre_rest=n_pre_rest, n_motion=n_motion,
-        n_post_rest=n_post_rest, noise=noise, difficulties=difficulties))
+        n_post_rest=n_post_rest, noise=noise, difficulties=difficulties, posture=posture,
+        roll=roll))
 
 
 #: Frames of rest before the first gesture of a sequence (before the others:
@@ -1085,7 +1199,8 @@ MAX_SEQUENCE_FRAMES = 1_000_000
 def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
                     height: int = REFERENCE_HEIGHT, *, pause=(0, 15), fps: int = 30,
                     noise: bool = True, difficulties: Difficulties | None = None,
-                    distractors: bool = False, frames: int | None = None) -> Clip:
+                    distractors: bool = False, frames: int | None = None,
+                    postures=None) -> Clip:
     """One clip of several gestures one after another (issue 28): the same
     person and room (``seed``), each gesture as :func:`render_clip` draws it
     (every gesture path starts and ends at the rest position in front of the
@@ -1097,7 +1212,8 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
     as often as the others) comes before every gesture, followed by a pause
     drawn from ``pause``. With no gestures (``[]``) and ``distractors``, the
     clip holds distractors only, one after another, cut at ``frames`` frames
-    (required then, and only then).
+    (required then, and only then). ``postures``: per gesture, the posture it
+    is made in (None: the open hand), e.g. from ``NAME@POSTURE`` entries.
 
     Returns
     -------
@@ -1109,6 +1225,11 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
         distractors).
     """
     gestures = list(gestures)
+    postures = [None] * len(gestures) if postures is None else list(postures)
+    if len(postures) != len(gestures):
+        raise ValueError(f"postures must name one posture (or None) per gesture, got "
+                         f"{len(postures)} for {len(gestures)} gestures")
+    postures = [None if p is None else resolve_posture(p) for p in postures]
     if any(g not in GESTURE_NAMES for g in gestures) or not (gestures or distractors):
         raise ValueError(f"sequence must name one or more of {', '.join(GESTURE_NAMES)} "
                          f"(or none, with distractors), got "
@@ -1156,7 +1277,7 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
             distractor(SEQUENCE_LEAD if k == 0 else 0, int(others.integers(lo, hi + 1)))
         add(render_clip(gesture, seed, width, height,
                         n_pre_rest=SEQUENCE_LEAD if k == 0 and not distractors else 0,
-                        n_post_rest=after, **scene_options), gesture, spans)
+                        n_post_rest=after, posture=postures[k], **scene_options), gesture, spans)
     # the scene's description: the first gesture's (a distractor's names its kind)
     head = next((p for p in parts if p.gesture is not None), parts[0])
     end = frames if not gestures else offset
@@ -1173,4 +1294,4 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
                 hand_xy=np.concatenate([p.hand_xy for p in parts])[:end],
                 hand_area=np.concatenate([p.hand_area for p in parts])[:end],
                 sequence=tuple(spans), distractors=tuple(extra) if distractors else None,
-                renderer=renderer)
+                postures=sum((p.postures for p in parts), ())[:end], renderer=renderer)

@@ -9,13 +9,16 @@ A person in front of a textured wall performs one of the seven gestures of the
 thesis (Fig. 16) with a skin-coloured, textured hand held in front of the chest.
 Both cameras are rendered (YCbCr 4:2:2 byte streams, sensor noise, a small
 illumination difference) and written as a clip directory: clip.json, left.npy,
-right.npy and truth.csv (the exact hand centroid of every frame).
+right.npy and truth.csv (the exact hand centroid and the hand's posture of
+every frame). --posture holds a posture through the gesture (asl0 .. asl9,
+fist; open, point, v); --sequence entries take NAME@POSTURE.
 """
 from __future__ import annotations
 
 import argparse
 
 from sim.gesture_shapes import GESTURE_NAMES
+from sim.hand_postures import POSTURE_NAMES
 from stereogest.commands import (DEFAULT_SEED, add_json_switch, add_scene_options,
                                  scene_difficulties)
 
@@ -31,9 +34,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "edge and back, left = towards its right edge and back, "
                              "rotate-right / rotate-left = a loop on the image's left / "
                              "right side, stop = a downward-pointing triangle")
-    parser.add_argument("--sequence", metavar="NAME[,NAME...]", default=None,
+    parser.add_argument("--posture", default=None, metavar="POSTURE",
+                        help="the hand's posture through the gesture (default: the open "
+                             "hand): " + ", ".join(POSTURE_NAMES) + ", or open, point, v "
+                             "(asl5, asl1, asl2); drawn with the person's proportions, a "
+                             "roll of up to 30 degrees and small changes frame to frame")
+    parser.add_argument("--sequence", metavar="NAME[@POSTURE][,...]", default=None,
                         help="instead of --gesture: these gestures one after another in "
-                             "one clip (the truth names every gesture's frame span); 'none' "
+                             "one clip (the truth names every gesture's frame span), each "
+                             "in the posture after its @ (default: --posture's); 'none' "
                              "with --distractors and --frames: no gesture")
     parser.add_argument("--distractors", action="store_true",
                         help="--sequence: non-gesture motion before every gesture, each "
@@ -74,8 +83,22 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --gesture NAME or --sequence NAME[,NAME...]")
     if args.sequence is None and (args.distractors or args.frames is not None):
         raise ValueError("--distractors and --frames go with --sequence")
+    from sim.hand_postures import resolve_posture
+    posture = None
+    if args.posture is not None:
+        try:
+            posture = resolve_posture(args.posture)
+        except ValueError as exc:
+            raise ValueError(f"--posture: {exc}") from None
     if args.sequence is not None:
-        names = [n.strip() for n in args.sequence.split(",")]
+        entries = [n.strip().partition("@") for n in args.sequence.split(",")]
+        names = [name.strip() for name, _, _ in entries]
+        postures = []
+        for name, at, wanted in entries:
+            try:
+                postures.append(resolve_posture(wanted.strip()) if at else posture)
+            except ValueError as exc:
+                raise ValueError(f"--sequence: {name.strip()}@{wanted.strip()}: {exc}") from None
         if names == ["none"]:
             names = []
             if not args.distractors or args.frames is None:
@@ -96,10 +119,11 @@ def run(args: argparse.Namespace) -> int:
     if args.sequence is not None:
         clip = render_sequence(names, args.seed, args.width, args.height, pause=pause,
                                fps=args.fps, difficulties=difficulties,
-                               distractors=args.distractors, frames=args.frames)
+                               distractors=args.distractors, frames=args.frames,
+                               postures=postures if names else None)
     else:
         clip = render_clip(args.gesture, args.seed, args.width, args.height, fps=args.fps,
-                           difficulties=difficulties)
+                           difficulties=difficulties, posture=posture)
     path = save_clip(clip, args.output)
     first, last = clip.motion_frames
     what = args.gesture if args.sequence is None else \
@@ -120,5 +144,6 @@ def run(args: argparse.Namespace) -> int:
         if clip.distractors is not None:
             report["distractors"] = [{"kind": k, "frames": [a, b]}
                                      for k, a, b in clip.distractors]
+        report["postures"] = clip.metadata()["postures"]
         print(json.dumps(report))
     return 0
