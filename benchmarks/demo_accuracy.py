@@ -108,7 +108,8 @@ def _cpu_seconds() -> float:
 def _first(trajectory, frames):
     """The trajectory's first ``frames`` frames (the hold-still frames left out)."""
     from sim.model.pipeline import Trajectory
-    return Trajectory(*(getattr(trajectory, f)[:frames] for f in Trajectory._fields))
+    return Trajectory(*(None if getattr(trajectory, f) is None else getattr(trajectory, f)[:frames]
+                        for f in Trajectory._fields))
 
 
 def model_clip(gesture, seed, width, height, model=None, difficulties=None,

@@ -17,6 +17,9 @@ Stages, in dataflow order (each a component of :mod:`hdl`)::
         Centroid                  §7.1   moments and dividers, once per frame
         MovingAverage             §7.2   N frames, 10.8 fixed point
         GestureSpotting           §7.3   K frames, Tm pixels, hold
+      beside the opening and the centroid (``params.posture``):
+        Opening                   §10.1  the posture's mask, 3x3 square
+        PostureDescriptor         §10.1  the hand's shape, one record per frame
 
 The synchroniser delivers every frame as exactly ``width * height`` pixel beats
 followed by ``flush`` beats, the sum of the look-ahead (``lag``) of the window
@@ -52,6 +55,7 @@ from .lrcc import disparity_bits
 from .median3x3 import Median3x3, median_memory_bits, median_timing
 from .moving_average import MovingAverage
 from .opening import Opening, opening_memory_bits, opening_timing
+from .posture_descriptor import PostureDescriptor, posture_cycles_after_frame
 from .raster_position import OVERRUN_ROWS
 from .rectify import Rectifier, check_rectifier, rectify_memory_bits, rectify_timing
 from .segmentation import HandSegmentation, segmentation_memory_bits
@@ -59,6 +63,8 @@ from .stage import StageTiming
 from .stereo_matcher import StereoMatcher, matcher_memory_bits, matcher_stage, matcher_timing
 from .stereo_sync import StereoSynchronizer, check_fifo
 from .streams import connect_remapped, pixel_signature
+from .posture_descriptor import WORD_BITS
+from soc.hps_interface import POSTURE_WORD_COUNT
 from .ycbcr422 import YCbCr422To444
 
 __all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop", "pipeline_timing",
@@ -69,7 +75,10 @@ __all__ = ["GesturePipeline", "VIDEO_STAGES", "record_layout", "PipelineTop", "p
 #: (:func:`pipeline_stage`); ``rectify_*`` only with a rectification.
 PIPELINE_STAGES = ("capture_left", "capture_right", "synchronizer", "to444_left", "to444_right",
                    "rectify_left", "rectify_right", "median_left", "median_right", "matcher",
-                   "segmentation", "opening", "centroid", "moving_average", "spotting")
+                   "segmentation", "opening", "centroid", "moving_average", "spotting",
+                   "posture_opening", "posture")
+#: The posture's mask: a 3x3 square opening (sim.model.posture.OPENING).
+POSTURE_OPENING = ("square", 3)
 
 
 def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
@@ -84,7 +93,8 @@ def record_layout(width: int, height: int, frac_bits: int) -> data.StructLayout:
 
 class PipelineTiming(NamedTuple):
     """The pipeline's timing figures (:func:`pipeline_timing`)."""
-    #: flush beats per frame: the look-ahead of every window stage
+    #: flush beats per frame: the look-ahead of every window stage (at least
+    #: what the posture descriptor needs to send its record)
     flush: int
     #: clock cycles from a pixel beat to its opened-mask beat (free-running part)
     pixel_cycles: int
@@ -149,6 +159,16 @@ def pipeline_timing(width: int, height: int, params: PipelineParams = PipelinePa
     if params.track_gate and flush <= gate_cycles:
         raise ValueError(f"track_gate needs at least {gate_cycles + 1} flush beats "
                          f"between frames, the windows give {flush}")
+    if params.posture:
+        # the descriptor's record must be out before the next frame's pixels (on
+        # small frames the synchroniser gives more flush beats than the windows
+        # need), and the centroid its window is about must be in before them
+        posture_lag = opening_timing(width, resolve_element(*POSTURE_OPENING)).lag
+        flush = max(flush, posture_cycles_after_frame() - 1)
+        before = flush - pixel[-1].lag + posture_lag
+        if params.posture_gate and before <= gate_cycles + 2:
+            raise ValueError(f"posture_gate needs the centroid {gate_cycles + 3} beats before "
+                             f"the next frame's posture, the windows give {before}")
     pixel_cycles = sum(s.cycles for s in pixel)
     record_cycles = (flush + pixel_cycles + centroid_cycles
                      + MovingAverage.cycles + GestureSpotting.cycles + 1)
@@ -179,6 +199,8 @@ def pipeline_memory_bits(width: int, height: int, params: PipelineParams = Pipel
             max_disparity=p.max_disparity, pixel_bits=8).items()},
         "skin delay line": segmentation_memory_bits(skin_delay_beats=med.lag + mat.lag),
         "opening row buffers": opening_memory_bits(width, element),
+        **({"posture opening row buffers": opening_memory_bits(
+            width, resolve_element(*POSTURE_OPENING))} if p.posture else {}),
     }
 
 
@@ -232,6 +254,10 @@ def pipeline_stage(name: str, width: int, height: int, params: PipelineParams = 
         return Opening(width, height, element=p.opening_shape, size=p.opening_size)
     if name == "centroid":
         return Centroid(width, height, track_gate=p.track_gate, hand_rows=p.hand_rows)
+    if name == "posture_opening" and p.posture:
+        return Opening(width, height, element=POSTURE_OPENING[0], size=POSTURE_OPENING[1])
+    if name == "posture" and p.posture:
+        return PostureDescriptor(width, height, gate=p.posture_gate)
     coord = bits_for(max(width, height) - 1)
     if name == "moving_average":
         return MovingAverage(coord_bits=coord, window=p.average_window, frac_bits=p.frac_bits)
@@ -240,7 +266,8 @@ def pipeline_stage(name: str, width: int, height: int, params: PipelineParams = 
                                threshold=p.spot_threshold, hold=p.spot_hold,
                                frac_bits=p.frac_bits)
     names = [n for n in PIPELINE_STAGES
-             if rectification is not None or not n.startswith("rectify_")]
+             if (rectification is not None or not n.startswith("rectify_"))
+             and (p.posture or not n.startswith("posture"))]
     raise ValueError(f"stage must be one of {', '.join(names)} or matcher.<stage>, "
                      f"got {name!r}")
 
@@ -270,6 +297,9 @@ class GesturePipeline(wiring.Component):
         ``cam_right`` clock domains (the cameras' PCLK; GPIO_1 / GPIO_0).
     start, pause : In, capture control (asynchronous; see CameraCapture).
     o_stream : one record per frame (:func:`record_layout`), always ready.
+    o_posture : the posture descriptor's record, a word a beat
+        (:class:`~hdl.posture_descriptor.PostureDescriptor`; never valid
+        without ``params.posture``), always ready.
     video_select : In(3), index into :data:`VIDEO_STAGES`.
     o_video : ``{first, pixel}``, the selected stage's pixels (8-bit; masks
         as 0/255, disparity shifted to 8 bits), only real pixels.
@@ -292,7 +322,8 @@ class GesturePipeline(wiring.Component):
         p = params
         #: names of its stages (:meth:`stage`), in dataflow order
         self.stage_names = tuple(name for name in PIPELINE_STAGES
-                                 if rectification is not None or not name.startswith("rectify_"))
+                                 if (rectification is not None or not name.startswith("rectify_"))
+                                 and (p.posture or not name.startswith("posture")))
         #: names of the pixel stages of one camera's path, in order
         #: (:class:`hdl.stage.PixelStage`, :func:`pixel_stage_timing`)
         self.pixel_stage_names = tuple(pixel_stage_timing(width, height, params, rectification))
@@ -307,6 +338,9 @@ class GesturePipeline(wiring.Component):
                                              always_ready=True)),
             "video_select": In(3),
             "o_video": Out(pixel_signature(8)),
+            "o_posture": Out(stream.Signature(data.StructLayout(
+                {"index": bits_for(POSTURE_WORD_COUNT - 1), "word": WORD_BITS}),
+                always_ready=True)),
             "frames": Out(16), "faults": Out(16),
             "threshold": In(bits_for(p.max_disparity), init=p.lrcc_threshold),
         })
@@ -370,6 +404,16 @@ class GesturePipeline(wiring.Component):
         connect_remapped(m, seg.o_stream, opening.i_stream, pixel=seg.o_stream.payload.hand)
         m.submodules.centroid = cen = self.stage("centroid")
         wiring.connect(m, opening.o_stream, cen.i_stream)
+
+        # --- the posture, beside the opening and the centroid --------------------------
+        if self.params.posture:
+            m.submodules.posture_opening = shape = self.stage("posture_opening")
+            connect_remapped(m, seg.o_stream, shape.i_stream, pixel=seg.o_stream.payload.hand)
+            m.submodules.posture = desc = self.stage("posture")
+            wiring.connect(m, shape.o_stream, desc.i_stream)
+            if self.params.posture_gate:
+                connect_remapped(m, cen.o_stream, desc.i_gate)
+            wiring.connect(m, desc.o_stream, wiring.flipped(self.o_posture))
 
         # --- per-frame features -------------------------------------------------------
         m.submodules.moving_average = avg = self.stage("moving_average")

@@ -32,7 +32,9 @@ from soc.hps_interface import POSTURE_WORD_COUNT, POSTURE_WORDS, posture_word_of
 from sim.model.posture import (BAND_SPAN, BANDS, RING_EDGES_16THS, RINGS, SECTORS, TAN_Q,
                                TANGENTS)
 
-from ._util import bits_for, check_geometry, replicate, times_constant
+from sim.model.centroid import TRACK_GATE_RANGE
+
+from ._util import bits_for, check_geometry, check_int, replicate, times_constant
 from .divider import UnsignedDivider, divider_cycles
 from .raster_position import RasterPosition
 from .streams import pixel_signature
@@ -61,6 +63,10 @@ class PostureDescriptor(wiring.Component):
     ----------
     width : int in [8, 4096]
     height : int in [2, 4096]
+    gate : int in [0, 4095]
+        Half-size of the window about the previous centroid (``i_gate``) the
+        mask counts in (:func:`sim.model.centroid.counted_pixels`); 0: the
+        whole frame.
 
     Ports
     -----
@@ -75,6 +81,10 @@ class PostureDescriptor(wiring.Component):
         first ``PIXEL_STAGES + 3`` cycles after the beat of the frame's last
         pixel: :func:`sim.model.posture.posture_words` of the frame about the
         previous frame's reference (none after reset).
+    i_gate : payload ``{x, y, hand}`` (always ready; only with ``gate``)
+        The centroid the window is about: a beat between two frames' pixels
+        (the pipeline's centroid, while the frame's last pixels are still in
+        its opening) sets the next frame's window, two cycles later.
 
     Attributes
     ----------
@@ -84,8 +94,9 @@ class PostureDescriptor(wiring.Component):
         Width of the area and of every polar and band counter.
     """
 
-    def __init__(self, width: int, height: int):
+    def __init__(self, width: int, height: int, *, gate: int = 0):
         self.width, self.height = check_geometry(width, height)
+        self.gate = check_int("gate", gate, *TRACK_GATE_RANGE)
         self.cycles_after_frame = posture_cycles_after_frame()
         self.count_bits = bits_for(self.width * self.height)
         # the reference is loaded after the divider and the products: the
@@ -94,14 +105,41 @@ class PostureDescriptor(wiring.Component):
         self.y_bits = bits_for(self.height - 1)
         self.sum_x_bits = bits_for(self.width * self.height * (self.width - 1))
         assert divider_cycles(self.sum_x_bits) + 2 * 14 < POSTURE_WORD_COUNT
-        super().__init__({
+        members = {
             "i_stream": In(pixel_signature(1, real=True)),
             "o_stream": Out(stream.Signature(data.StructLayout(
                 {"index": bits_for(POSTURE_WORD_COUNT - 1), "word": WORD_BITS}),
                 always_ready=True)),
-        })
+        }
+        if self.gate:
+            members["i_gate"] = In(stream.Signature(data.StructLayout(
+                {"x": self.x_bits, "y": self.y_bits, "hand": 1}), always_ready=True))
+        super().__init__(members)
 
     # ---- helpers --------------------------------------------------------------
+
+    def _gate_bounds(self, m):
+        """The window's bounds (x_lo, x_hi, y_lo, y_hi): the square of half-size
+        ``gate`` about the last centroid on ``i_gate``, clipped to the frame;
+        the whole frame after reset or a centroid without hand. The new bounds
+        are registered first, then loaded (as :class:`hdl.centroid.Centroid`'s gate)."""
+        r, g = self.gate, self.i_gate
+        bounds = [Signal(self.x_bits, name="gate_x_lo"),
+                  Signal(self.x_bits, name="gate_x_hi", init=self.width - 1),
+                  Signal(self.y_bits, name="gate_y_lo"),
+                  Signal(self.y_bits, name="gate_y_hi", init=self.height - 1)]
+        load = Signal(name="gate_load")
+        m.d.sync += load.eq(g.valid)
+        following = []
+        for axis, c, top, bits in (("x", g.payload.x, self.width - 1, self.x_bits),
+                                   ("y", g.payload.y, self.height - 1, self.y_bits)):
+            lo, hi = (Signal(bits, name=f"gate_next_{axis}_{end}") for end in ("lo", "hi"))
+            m.d.sync += [lo.eq(Mux(g.payload.hand & (c > r), c - r, 0)),
+                         hi.eq(Mux(~g.payload.hand | (c + r >= top), top, c + r))]
+            following += [lo, hi]
+        with m.If(load):
+            m.d.sync += [b.eq(f) for b, f in zip(bounds, following)]
+        return bounds
 
     @staticmethod
     def _serial_product(m, start, a, b, bits, name):
@@ -165,10 +203,12 @@ class PostureDescriptor(wiring.Component):
         oddx1 = Signal(signed(dx_shape.width + 2), name="oddx1")      # 2 dx - 1
         oddy1 = Signal(signed(dx_shape.width + 2), name="oddy1")      # 2 dyu + 1
         right1 = Signal(name="right1")                                 # x > ref x
-        start1 = Signal(name="start1")                                 # a run starts here
-        prev = Signal(name="prev_pixel")
-        with m.If(beat):
-            m.d.sync += prev.eq(p.pixel)
+        in_gate1 = Signal(name="in_gate1")
+        if self.gate:
+            lo_x, hi_x, lo_y, hi_y = self._gate_bounds(m)
+            m.d.sync += in_gate1.eq((x0 >= lo_x) & (x0 <= hi_x) & (y0 >= lo_y) & (y0 <= hi_y))
+        else:
+            m.d.comb += in_gate1.eq(1)
         m.d.sync += [
             v1.eq(beat), pix1.eq(p.pixel), first1.eq(p.first), rowstart1.eq(x0 == 0),
             row_end1.eq(x0 == w - 1), last1.eq((x0 == w - 1) & (y0 == h - 1)),
@@ -177,7 +217,6 @@ class PostureDescriptor(wiring.Component):
             oddx1.eq((x0 << 1) - (ref["x"] << 1) - 1),
             oddy1.eq((ref["anchor"] << 1) + 1 - (y0 << 1)),
             right1.eq(x0 > ref["x"]),
-            start1.eq(p.pixel & ((x0 == 0) | ~prev)),
         ]
 
         # ---- s2: squares and tangent products by steps; row runs -----------------
@@ -190,13 +229,18 @@ class PostureDescriptor(wiring.Component):
         xx = Signal(bits_for((w - 1) ** 2), name="xx2")
         yy = Signal(bits_for((h - 1) ** 2), name="yy2")
         xy = Signal(bits_for((w - 1) * (h - 1)), name="xy2")
-        row_runs = Signal(bits_for(w), name="row_runs2")
+        counted1 = pix1 & in_gate1
+        start2 = Signal(name="start2")                                 # a run starts here
+        rowstart2 = Signal(name="rowstart2")
+        prev = Signal(name="prev_pixel")
+        with m.If(v1):
+            m.d.sync += prev.eq(counted1)
+        m.d.sync += [start2.eq(counted1 & (rowstart1 | ~prev)), rowstart2.eq(rowstart1)]
         with m.If(v1):
             m.d.sync += [
                 dx_sq.eq(Mux(rowstart1, ref["x_sq"], dx_sq + oddx1)),
                 xx.eq(Mux(rowstart1, 0, xx + (x1 << 1) - 1)),
                 xy.eq(Mux(rowstart1, 0, xy + y1)),
-                row_runs.eq(Mux(rowstart1, 0, row_runs) + start1),
             ]
             m.d.sync += [a.eq(Mux(rowstart1, r, a + Mux(right1, t, -t)))
                          for a, r, t in zip(ax, ref["x_tan"], tangents)]
@@ -218,7 +262,7 @@ class PostureDescriptor(wiring.Component):
         band_ge = Signal(BANDS, name="band_ge2")
         q = [(dx1 > 0) & (dyu1 >= 0), (dx1 <= 0) & (dyu1 > 0), (dx1 < 0) & (dyu1 <= 0)]
         m.d.sync += [
-            v2.eq(v1), pix2.eq(pix1), first2.eq(first1), row_end2.eq(row_end1),
+            v2.eq(v1), pix2.eq(counted1), first2.eq(first1), row_end2.eq(row_end1),
             last2.eq(last1), x2.eq(x1), y2.eq(y1),
             origin2.eq((dx1 == 0) & (dyu1 == 0)),
             abs_dx.eq(Mux(dx1 < 0, -dx1, dx1)), abs_dy.eq(Mux(dyu1 < 0, -dyu1, dyu1)),
@@ -272,21 +316,29 @@ class PostureDescriptor(wiring.Component):
             with m.Elif(first2):
                 m.d.sync += seen.eq(0)
 
-        # the row's band: b with 3 W b <= 16 up < 3 W (b + 1), up >= 0
-        row_done = Signal(name="row_done3")
-        row_total = Signal(bits_for(w), name="row_total3")
-        band_hot = Signal(BANDS, name="band_hot3")
-        first3 = Signal(name="first3")
-        ge = [Const(1)] + [band_ge[k] for k in range(BANDS)]
+        # the row's runs (s3), then its band (s4): b with 3 W b <= 16 up < 3 W (b + 1)
+        row_runs = Signal(bits_for(w), name="row_runs3")
+        with m.If(v2):
+            m.d.sync += row_runs.eq(Mux(rowstart2, 0, row_runs) + start2)
+        above3 = Signal(name="above3")
+        band_ge3 = Signal(BANDS, name="band_ge3")
+        row_end3, first3 = Signal(name="row_end3"), Signal(name="first3")
+        m.d.sync += [above3.eq(above), band_ge3.eq(band_ge), row_end3.eq(row_end2),
+                     first3.eq(first2)]
+        row_done = Signal(name="row_done4")
+        row_total = Signal(bits_for(w), name="row_total4")
+        band_hot = Signal(BANDS, name="band_hot4")
+        first4 = Signal(name="first4")
+        ge = [Const(1)] + [band_ge3[k] for k in range(BANDS)]
         m.d.sync += [
-            row_done.eq(v2 & row_end2 & ref["have"]), row_total.eq(row_runs),
-            band_hot.eq(Cat(*[above & ge[b] & ~ge[b + 1] for b in range(BANDS)])),
-            first3.eq(v2 & first2),
+            row_done.eq(v3 & row_end3 & ref["have"]), row_total.eq(row_runs),
+            band_hot.eq(Cat(*[above3 & ge[b] & ~ge[b + 1] for b in range(BANDS)])),
+            first4.eq(v3 & first3),
         ]
         band_sum = [Signal(cb, name=f"band_sum{b}") for b in range(BANDS)]
         band_rows = [Signal(self.y_bits + 1, name=f"band_rows{b}") for b in range(BANDS)]
         band_max = [Signal(bits_for(w), name=f"band_max{b}") for b in range(BANDS)]
-        with m.If(first3):
+        with m.If(first4):
             m.d.sync += [s.eq(0) for s in band_sum + band_rows + band_max]
         with m.Elif(row_done):
             for b in range(BANDS):

@@ -12,6 +12,8 @@ from amaranth.sim import Simulator
 from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
 from sim.camera import CameraTiming, camera_waveform
 from sim.model.pipeline import PipelineParams, process_frame, track
+from sim.model.posture import posture_reference
+from soc.hps_interface import POSTURE_WORD_COUNT
 from sim.model.ycbcr import ycbcr444_to_422
 
 SMALL = PipelineParams(census_window=3, hamming_window=3, max_disparity=8, lrcc_threshold=2,
@@ -40,11 +42,13 @@ def small_frames(n, width=32, height=16, seed=0):
 
 def golden(lefts, rights, params, rectification=None):
     """Model records: per-frame centroid and area, then moving average and spotting."""
-    stages, previous = [], None
+    stages, previous, reference = [], None, None
     for left, right in zip(lefts, rights):
         stages.append(process_frame(left, right, params, rectification=rectification,
-                                    previous=previous))
+                                    previous=previous, reference=reference))
         previous = stages[-1].centroid
+        if stages[-1].posture is not None:
+            reference = posture_reference(stages[-1].posture)
     cents = np.array([[s.centroid.x, s.centroid.y] for s in stages])
     areas = np.array([s.centroid.area for s in stages])
     return stages, cents, areas, track(cents, areas, params)
@@ -58,7 +62,7 @@ def run_amaranth(dut, left_wave, right_wave, sync_cycles, video=False):
     sim.add_clock(10e-9, domain="sync")
     sim.add_clock(5e-9, phase=1.3e-9, domain="cam_left")
     sim.add_clock(5e-9, phase=3.7e-9, domain="cam_right")
-    records, pixels = [], []
+    records, pixels, words = [], [], []
     layout = dut.o_stream.payload.shape()
 
     def driver(pins, wave, domain):
@@ -78,6 +82,9 @@ def run_amaranth(dut, left_wave, right_wave, sync_cycles, video=False):
             if ctx.get(dut.o_stream.valid):
                 records.append({name: ctx.get(getattr(payload, name))
                                 for name in layout.members})
+            if ctx.get(dut.o_posture.valid):
+                words.append((ctx.get(dut.o_posture.payload.index),
+                              ctx.get(dut.o_posture.payload.word)))
             if video and ctx.get(dut.o_video.valid):
                 pixels.append((ctx.get(dut.o_video.payload.first),
                                ctx.get(dut.o_video.payload.pixel)))
@@ -86,7 +93,16 @@ def run_amaranth(dut, left_wave, right_wave, sync_cycles, video=False):
     sim.add_testbench(driver(dut.right, right_wave, "cam_right"), background=True)
     sim.add_testbench(collect)
     sim.run()
+    run_amaranth.posture_words = words
     return records, pixels
+
+
+def posture_records(words):
+    """The o_posture beats ``(index, word)`` as one list of words per frame."""
+    indices = [i for i, _ in words]
+    assert indices == list(range(POSTURE_WORD_COUNT)) * (len(words) // POSTURE_WORD_COUNT)
+    flat = [w for _, w in words]
+    return [flat[k:k + POSTURE_WORD_COUNT] for k in range(0, len(flat), POSTURE_WORD_COUNT)]
 
 
 def small_rectification(width=32, height=16):
@@ -99,8 +115,8 @@ def small_rectification(width=32, height=16):
 
 
 #: SMALL with the centroid's hand tracking (sim.model.centroid): a gate the
-#: moving rectangle stays in, and its top rows.
-TRACKING = dataclasses.replace(SMALL, track_gate=7, hand_rows=3)
+#: moving rectangle stays in, and its top rows; the posture's window about it.
+TRACKING = dataclasses.replace(SMALL, track_gate=7, hand_rows=3, posture_gate=6)
 
 
 @pytest.mark.parametrize("rectified, params", [(False, SMALL), (True, SMALL),
@@ -128,6 +144,9 @@ def test_small_pipeline_equals_golden_model(rectified, params):
         assert (rec["x"], rec["y"], rec["flag"]) == \
             (traj.smoothed[k][0], traj.smoothed[k][1], int(traj.flag[k])), k
     assert traj.flag.any(), "the test track must trigger the spotting"
+    # the posture record of every frame, about the previous frame's reference
+    assert posture_records(run_amaranth.posture_words) == [st.posture_words() for st in stages]
+    assert any(st.posture_reference.width for st in stages)
 
 
 def test_parameters_are_validated_before_building():
@@ -172,8 +191,9 @@ def test_stages_are_built_alone_on_request():
         Fragment.get(stage, None)
     assert stages["segmentation"].skin_delay_beats == median.lag + matcher.lag
     assert stages["census"].census_window == 3 and stages["columns"].max_disparity == 8
-    with pytest.raises(ValueError, match="stage must be one of capture_left, .*, spotting or "
-                                         "matcher.<stage>, got 'rectify_left'"):
+    with pytest.raises(ValueError, match="stage must be one of capture_left, .*, spotting, "
+                                         "posture_opening, posture or matcher.<stage>, got "
+                                         "'rectify_left'"):
         dut.stage("rectify_left")
     with pytest.raises(ValueError, match="census_window"):
         pipeline_stage("centroid", 32, 16, dataclasses.replace(SMALL, census_window=4))
@@ -209,7 +229,9 @@ def test_pipeline_timing_without_building(width, height, params):
     assert tuple(pixel_stage_timing(width, height, params)) == built.pixel_stage_names
     assert list(pixel_stage_timing(width, height, params).values()) == \
         [(s.lag, s.cycles) for s in stages]
-    flush = sum(s.lag for s in stages)
+    # the windows' look-ahead, or what the posture descriptor needs on small frames
+    descriptor = stage("posture")
+    flush = max(sum(s.lag for s in stages), descriptor.cycles_after_frame - 1)
     assert timing.flush == flush == built.flush
     assert timing.pixel_cycles == sum(s.cycles for s in stages)
     assert timing.frame_cycles == width * height + flush
@@ -223,7 +245,8 @@ def test_pipeline_timing_without_building(width, height, params):
         "median row buffers": 2 * median.memory_bits,
         **{f"matcher {k}": v for k, v in matcher.memory_bits.items()},
         "skin delay line": stage("segmentation").memory_bits,
-        "opening row buffers": stage("opening").memory_bits}
+        "opening row buffers": stage("opening").memory_bits,
+        "posture opening row buffers": stage("posture_opening").memory_bits}
     # independently, from the stream convention: a window of radius r looks
     # r * width + r beats ahead (4:2:2 one beat; the census and Hamming windows,
     # D - 1 for the consistency check, the disparity and camera medians, the

@@ -3,8 +3,8 @@
 three clocks, no Python per cycle):
 
 * a rendered 640x480 gesture clip at the thesis parameters: every frame's
-  record (raw centroid, area, smoothed point, gesture flag) equals the golden
-  model's, and ``stereogest pipeline --backend verilator`` writes the same
+  record (raw centroid, area, smoothed point, gesture flag) and posture record
+  equal the golden model's, and ``stereogest pipeline --backend verilator`` writes the same
   trajectory.csv as ``--backend model``;
 * bad camera input on small frames (cut frame, HREF glitch, VSYNC inside a line,
   reset of every domain mid-frame, one camera silent for a frame): the damaged
@@ -44,8 +44,9 @@ def test_vga_clip_records_equal_golden_model(vga_clip):
     hw, stats = run_clip_hardware(clip.left, clip.right, THESIS)
     ref, _ = run_clip(clip.left, clip.right, THESIS)
     assert (ref.area > 0).all(), "the rendered frames must show the hand"
-    for field in ("centroid", "area", "smoothed", "flag", "symbol"):
+    for field in ("centroid", "area", "smoothed", "flag", "symbol", "posture"):
         assert np.array_equal(getattr(hw, field), getattr(ref, field)), field
+    assert (ref.posture[1:, 1] > 0).all(), "the posture reference must hold the hand"
     assert stats["faults"] == 0 and stats["frames"] == len(clip.left)
 
 
@@ -219,6 +220,7 @@ def test_hand_tracking_full_frames_equal_golden_model():
     ref, _ = run_clip(clip.left, clip.right, params)
     thesis, _ = run_clip(clip.left, clip.right, SMALL)
     assert (ref.area > 0).all() and (ref.area < thesis.area).all()
-    for field in ("centroid", "area", "smoothed", "flag", "symbol"):
+    assert (ref.posture[1:, 2] < thesis.posture[1:, 2]).all()   # the window holds the hand
+    for field in ("centroid", "area", "smoothed", "flag", "symbol", "posture"):
         assert np.array_equal(getattr(hw, field), getattr(ref, field)), field
     assert stats["faults"] == 0

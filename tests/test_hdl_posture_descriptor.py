@@ -10,6 +10,7 @@ from hdl.posture_descriptor import PostureDescriptor, posture_cycles_after_frame
 from sim.model.posture import (PostureReference, posture_mask, posture_reference,
                                posture_registers, posture_words)
 from soc.hps_interface import POSTURE_WORD_COUNT
+from sim.model.centroid import counted_pixels
 from verif.streams import pack
 
 
@@ -48,14 +49,16 @@ def _expected(masks):
     return words
 
 
-def _run(dut, masks, seed, idle=0.2, exact=False):
+def _run(dut, masks, seed, idle=0.2, exact=False, gates=None):
     """Stream the masks (non-real beats between frames, idle cycles); the next
     frame's first beat comes ``cycles_after_frame`` after the last (``exact``)
     or later. Returns the records and the cycle of each record's first word."""
     rng = np.random.default_rng(seed)
     layout = dut.i_stream.payload.shape()
-    schedule = []
-    for mask in masks:
+    schedule, gate_at = [], {}
+    for f, mask in enumerate(masks):
+        if gates is not None and gates[f] is not None:
+            gate_at[len(schedule) - 5] = gates[f]    # in the gap before the frame
         for k, v in enumerate(mask.ravel()):
             while rng.random() < idle:
                 schedule.append(None)
@@ -71,6 +74,13 @@ def _run(dut, masks, seed, idle=0.2, exact=False):
     async def tb(ctx):
         current = []
         for cycle, beat in enumerate(schedule + [None] * 8):
+            if gates is not None:
+                gate = gate_at.get(cycle)
+                ctx.set(dut.i_gate.valid, int(gate is not None))
+                if gate is not None:
+                    ctx.set(dut.i_gate.payload.x, gate[0])
+                    ctx.set(dut.i_gate.payload.y, gate[1])
+                    ctx.set(dut.i_gate.payload.hand, int(gate[2] > 0))
             ctx.set(dut.i_stream.valid, int(beat is not None))
             if beat is not None:
                 ctx.set(dut.i_stream.payload.as_value(), beat)
@@ -114,8 +124,28 @@ def test_next_frame_right_after_the_record_without_idle_cycles():
     assert dut.cycles_after_frame == posture_cycles_after_frame()
 
 
-@pytest.mark.parametrize("width, height, name", [(7, 10, "width"), (16, 1, "height"),
-                                                  (5000, 10, "width")])
-def test_bad_geometry_names_the_parameter(width, height, name):
+def test_the_window_about_the_previous_centroid():
+    """Only pixels within ``gate`` of the centroid given between the frames count
+    (the whole frame without a hand), as sim.model.centroid.counted_pixels."""
+    width, height, gate = 40, 30, 7
+    dut = PostureDescriptor(width, height, gate=gate)
+    masks = _masks(height, width, 11)
+    rng = np.random.default_rng(11)
+    gates = [None] + [(int(rng.integers(width)), int(rng.integers(height)),
+                       int(rng.integers(0, 3))) for _ in masks[1:]]
+    gates[3] = (0, height - 1, 5)            # clipped at the frame's edges
+    records, _ = _run(dut, masks, 11, gates=gates)
+    windowed, latest = [], None
+    for mask, g in zip(masks, gates):
+        latest = g if g is not None else latest
+        windowed.append(counted_pixels(mask, previous=latest, track_gate=gate))
+    assert any((w != m).any() for w, m in zip(windowed, masks))
+    assert records == _expected(windowed)
+
+
+@pytest.mark.parametrize("width, height, gate, name", [
+    (7, 10, 0, "width"), (16, 1, 0, "height"), (5000, 10, 0, "width"), (16, 10, -1, "gate"),
+    (16, 10, 4096, "gate")])
+def test_bad_parameters_name_the_parameter(width, height, gate, name):
     with pytest.raises(ValueError, match=name):
-        PostureDescriptor(width, height)
+        PostureDescriptor(width, height, gate=gate)

@@ -14,7 +14,9 @@ from sim.model.pipeline import (FrameStages, PipelineParams, Trajectory, process
 from sim.model.segmentation import disparity_band, hand_mask, skin_mask
 from sim.model.stereo import stereo_match
 from sim.model.ycbcr import ycbcr422_to_444
+from sim.model.posture import posture_reference
 from sim.render import LAYER_LABELS, StereoScene, render_clip
+from soc.hps_interface import POSTURE_WORD_COUNT
 
 # The default parameters are the thesis' values for 640x480; at 320x240 the hand
 # (~40 px tall) is still larger than the 29x29 SHD window and the 11x11 opening, while
@@ -235,7 +237,7 @@ def test_track_holds_the_average_when_no_hand():
 
 def test_track_edge_cases():
     t = track(np.zeros((0, 2)), np.zeros(0))
-    assert all(len(a) == 0 for a in t)
+    assert all(len(a) == 0 for a in t[:-1]) and t.posture is None
     t = track([[5, 7]], [0])
     assert t.smoothed.tolist() == [[0, 0]] and t.flag.tolist() == [False]
     with pytest.raises(ValueError, match="differ in length"):
@@ -317,10 +319,10 @@ def test_for_frame_hand_tracking_scales_with_the_width():
     assert (thesis.track_gate, thesis.hand_rows) == (0, 0) and not thesis.hand_tracking
     at_640 = PipelineParams.for_frame(640, hand_tracking=True)
     assert at_640.hand_tracking
-    assert {"track_gate": at_640.track_gate, "hand_rows": at_640.hand_rows} == HAND_TRACKING_640
+    assert {name: getattr(at_640, name) for name in HAND_TRACKING_640} == HAND_TRACKING_640
     at_320 = PipelineParams.for_frame(320, hand_tracking=True)
-    assert (at_320.track_gate, at_320.hand_rows) == (HAND_TRACKING_640["track_gate"] // 2,
-                                                      HAND_TRACKING_640["hand_rows"] // 2)
+    assert {name: getattr(at_320, name) for name in HAND_TRACKING_640} == \
+        {name: value // 2 for name, value in HAND_TRACKING_640.items()}
     assert PipelineParams.for_frame(320, hand_tracking=True, hand_rows=0).hand_rows == 0
 
 
@@ -340,11 +342,17 @@ def test_run_clip_keep_progress_and_trajectory(small_clip):
                           progress=lambda done, total: calls.append((done, total)))
     assert calls == [(n, 5) for n in range(1, 6)]
     assert sorted(kept) == [1, 3]
-    each = [process_frame(clip.left[n], clip.right[n]) for n in range(clip.frames)]
+    each, reference = [], None     # the posture is described about the previous frame's
+    for n in range(clip.frames):
+        each.append(process_frame(clip.left[n], clip.right[n], reference=reference))
+        reference = posture_reference(each[-1].posture)
     for n in (1, 3):
         for name, a, b in zip(FrameStages._fields, kept[n], each[n]):
-            assert np.array_equal(a, b), (n, name)
-    expected = track([st.centroid[:2] for st in each], [st.centroid.area for st in each])
+            assert (a == b if isinstance(a, tuple) else np.array_equal(a, b)), (n, name)
+    assert each[3].posture_reference == posture_reference(each[2].posture)
+    expected = track([st.centroid[:2] for st in each], [st.centroid.area for st in each],
+                     posture=[st.posture_words() for st in each])
+    assert traj.posture.shape == (clip.frames, POSTURE_WORD_COUNT)
     for name, a, b in zip(Trajectory._fields, traj, expected):
         assert np.array_equal(a, b), name
     # Default: keep nothing.

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.model.pipeline import PipelineParams
+from soc.hps_interface import POSTURE_WORD_COUNT
 
 from .clocks import Clocks, camera_waveforms, clip_timing
 from .verilator import (CPP, EMISSIONS, build_root, check_emission, simulation_verilog,
@@ -33,6 +34,8 @@ class PipelineRun:
     records: np.ndarray   #: structured array, one row per frame (:data:`RECORD_FIELDS`)
     video: np.ndarray | None  #: uint16 (first << 8) | pixel of the o_video beats
     stats: dict
+    #: (frames, POSTURE_WORD_COUNT) int64: the posture records (None without them)
+    posture: np.ndarray | None = None
 
 
 def _wrapper(top, core: str) -> str:
@@ -47,6 +50,9 @@ def _wrapper(top, core: str) -> str:
         out_assign.append(f"assign out_{name} = payload[{f.offset + width - 1}:{f.offset}];")
     rec_bits = layout.size
     tb = len(p.threshold)
+    posture_layout = p.o_posture.payload.shape()
+    posture_bits = posture_layout.size
+    assert posture_layout["word"].offset == posture_bits - 32
     return f"""
 module {TOP}(input clk, input rst, input cam_left_clk, input cam_left_rst,
   input cam_right_clk, input cam_right_rst,
@@ -55,9 +61,11 @@ module {TOP}(input clk, input rst, input cam_left_clk, input cam_left_rst,
   input start, input pause, input [2:0] video_select,
   output out_valid, {", ".join(out_ports)},
   output video_valid, output video_first, output [7:0] video_pixel,
+  output posture_valid, output [31:0] posture_word,
   output [15:0] frames, output [15:0] faults);
   wire [{rec_bits - 1}:0] payload;
   wire [8:0] video;
+  wire [{posture_bits - 1}:0] posture;
   // Resets through a register of their domain: a primary input feeding logic
   // makes Verilator re-evaluate all of it at every clock edge of the harness.
   reg rst_q = 1, cam_left_rst_q = 1, cam_right_rst_q = 1;
@@ -72,8 +80,10 @@ module {TOP}(input clk, input rst, input cam_left_clk, input cam_left_rst,
     .threshold({tb}'d{p.params.lrcc_threshold}),
     .o_stream__valid(out_valid), .o_stream__payload(payload),
     .o_video__valid(video_valid), .o_video__payload(video),
+    .o_posture__valid(posture_valid), .o_posture__payload(posture),
     .frames(frames), .faults(faults));
   {" ".join(out_assign)}
+  assign posture_word = posture[{posture_bits - 1}:{posture_bits - 32}];
   assign video_first = video[0];
   assign video_pixel = video[8:1];
 endmodule
@@ -140,22 +150,29 @@ def run_pipeline(left_wave, right_wave, width: int, height: int,
             + 2 * fifo_depth + 4 * width
     dtype = np.dtype([(name, "<i8") for name in RECORD_FIELDS])
     with tempfile.TemporaryDirectory() as tmp:
-        paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin")]
+        paths = [Path(tmp) / n for n in ("left.bin", "right.bin", "out.bin", "video.bin",
+                                         "posture.bin")]
         pack_pins(left_wave).astype("<u2").tofile(paths[0])
         pack_pins(right_wave).astype("<u2").tofile(paths[1])
         video_arg = str(paths[3]) if video_select is not None else "-"
         args = [str(exe), str(paths[0]), str(paths[1]), str(paths[2]), *clocks.camera_args(),
                 str(drain), str(reset_at),
-                str(reset_cycles), str(video_select or 0), video_arg]
+                str(reset_cycles), str(video_select or 0), video_arg, str(paths[4])]
         proc = subprocess.run(args, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"harness failed ({proc.returncode}): {proc.stderr}{proc.stdout}")
         stats = json.loads(proc.stdout.strip().splitlines()[-1])
         records = np.fromfile(paths[2], dtype=dtype)
         video = np.fromfile(paths[3], dtype="<u2") if video_select is not None else None
+        words = np.fromfile(paths[4], dtype="<u4").astype(np.int64)
     stats["exe"] = str(exe)
     stats["clocks"] = asdict(clocks)
-    return PipelineRun(records, video, stats)
+    posture = None
+    if params.posture:
+        whole = len(words) // POSTURE_WORD_COUNT * POSTURE_WORD_COUNT
+        posture = words[:whole].reshape(-1, POSTURE_WORD_COUNT)
+        stats["posture_words"] = len(words)
+    return PipelineRun(records, video, stats, posture)
 
 
 def run_clip_hardware(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
@@ -182,6 +199,11 @@ def run_clip_hardware(left_frames, right_frames, params: PipelineParams = Pipeli
                            f"({run.stats})")
     smoothed = np.stack([rec["x"], rec["y"]], axis=1)
     flag = rec["flag"].astype(bool)
+    posture = run.posture
+    if posture is not None and len(posture) != frames:
+        raise RuntimeError(f"the pipeline produced {len(posture)} posture records for "
+                           f"{frames} frames ({run.stats})")
     trajectory = Trajectory(np.stack([rec["centroid_x"], rec["centroid_y"]], axis=1),
-                            rec["area"].copy(), smoothed, flag, step_symbols(smoothed, flag))
+                            rec["area"].copy(), smoothed, flag, step_symbols(smoothed, flag),
+                            posture)
     return trajectory, run.stats

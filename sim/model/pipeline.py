@@ -14,6 +14,8 @@ list of stages, each a pure function of :mod:`sim.model`::
         hand_mask            skin AND band
         opening              W x W structuring element
         centroid             first-order moments / area
+        posture_mask         beside them (§10.1): skin AND band, 3x3 opening
+        posture_registers    the hand's shape about the previous frame's reference
     per clip (§7.2-7.3)
         moving_average       N samples, 10.8 fixed point
         gesture_spotting     K frames, Tm pixels
@@ -27,12 +29,14 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .centroid import Centroid, centroid
+from .centroid import TRACK_GATE_RANGE, Centroid, centroid, counted_pixels
 from .gesture_spotting import gesture_spotting
 from .median import median3x3
 from .morphology import opening, structuring_element
 from .moving_average import moving_average
 from .orientation import NO_SYMBOL, orientation_symbols
+from .posture import (PostureReference, PostureRegisters, posture_mask, posture_reference,
+                      posture_registers, posture_words)
 from .rectify import StereoRectification, rectify_pair
 from .segmentation import disparity_band, hand_mask, skin_mask
 from .stereo import check_stereo_params, stereo_match
@@ -50,7 +54,9 @@ DEMO_SPOT_HOLD = 24
 #: 640-pixel-wide frames, scaled to the width: the centroid counts the mask within
 #: 64 px of the previous centroid and its first 36 rows (sim.model.centroid).
 #: Chosen on the hard scene's development seeds 501-502 (README, scene difficulties).
-HAND_TRACKING_640 = {"track_gate": 64, "hand_rows": 36}
+#: The posture descriptor's window (96 px) holds the largest rendered hand with
+#: its fingers spread about its palm.
+HAND_TRACKING_640 = {"track_gate": 64, "hand_rows": 36, "posture_gate": 96}
 
 
 @dataclass(frozen=True)
@@ -74,6 +80,8 @@ class PipelineParams:
     spot_hold: int = 16               #: still frames that end a gesture
     track_gate: int = 0               #: hand tracking (not in the thesis): gate half-size, px
     hand_rows: int = 0                #: hand tracking: rows counted from the hand's top
+    posture: bool = True              #: the posture descriptor (§10.1, not in the thesis)
+    posture_gate: int = 0             #: its window about the previous centroid, px (0: none)
 
     #: Frame heights the pipeline accepts (the widths depend on the parameters:
     #: :meth:`width_range`).
@@ -105,6 +113,11 @@ class PipelineParams:
                  structuring_element, self.opening_shape, self.opening_size)
         centroid(probe, previous=(0, 0, 1), track_gate=self.track_gate,
                  hand_rows=self.hand_rows)
+        if not isinstance(self.posture, bool):
+            raise ValueError(f"posture must be True or False, got {self.posture!r}")
+        check_int("posture_gate", self.posture_gate, *TRACK_GATE_RANGE)
+        if self.posture_gate and not self.posture:
+            raise ValueError("posture_gate needs posture")
         _renamed({"window": "average_window"},
                  moving_average, *point, self.average_window, self.frac_bits)
         _renamed({"window": "spot_window", "threshold": "spot_threshold", "hold": "spot_hold"},
@@ -145,8 +158,8 @@ class PipelineParams:
 
 
 def hand_tracking_for(width: int) -> dict:
-    """``track_gate`` and ``hand_rows`` of :data:`HAND_TRACKING_640` scaled to
-    frames ``width`` pixels wide."""
+    """``track_gate``, ``hand_rows`` and ``posture_gate`` of
+    :data:`HAND_TRACKING_640` scaled to frames ``width`` pixels wide."""
     check_int("width", width, 16, 4096)
     return {name: max(1, round(value * width / 640)) for name, value in HAND_TRACKING_640.items()}
 
@@ -167,7 +180,8 @@ def _renamed(names: dict[str, str], check: Callable, *args) -> None:
 
 
 class FrameStages(NamedTuple):
-    """Every intermediate picture of one frame, (H, W) each, and the centroid."""
+    """Every intermediate picture of one frame, (H, W) each, the centroid, and
+    the posture descriptor (None without ``params.posture``)."""
     left: np.ndarray        #: Y of the left camera after the median, uint8
     right: np.ndarray       #: Y of the right camera after the median, uint8
     disparity: np.ndarray   #: final disparity map, uint8, 0 = invalid
@@ -176,6 +190,17 @@ class FrameStages(NamedTuple):
     hand: np.ndarray        #: skin AND band, bool
     opened: np.ndarray      #: after the opening, bool
     centroid: Centroid
+    #: the posture's mask (3x3 opening of ``hand``, within ``posture_gate``), bool
+    posture_mask: np.ndarray | None = None
+    #: its descriptor about ``posture_reference`` (the previous frame's)
+    posture: PostureRegisters | None = None
+    posture_reference: PostureReference | None = None
+
+    def posture_words(self) -> list | None:
+        """The frame's posture record as the hardware sends it (None without)."""
+        if self.posture is None:
+            return None
+        return posture_words(self.posture, self.posture_reference)
 
 
 def check_rectification(rectification, width: int, height: int) -> None:
@@ -194,6 +219,7 @@ def check_rectification(rectification, width: int, height: int) -> None:
 def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelineParams(),
                   *, rectification: StereoRectification | None = None,
                   previous: Centroid | None = None,
+                  reference: PostureReference | None = None,
                   threads: int | None = None) -> FrameStages:
     """Run one stereo frame through every pixel stage (§5.4 - §7.1).
 
@@ -202,7 +228,9 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     (:mod:`sim.model.rectify`) rectifies both cameras after the 4:4:4
     conversion; None (the thesis' pipeline) leaves them as they are.
     ``previous`` is the previous frame's centroid, which the hand tracking's
-    gate needs (``params.track_gate``; None: the clip's first frame).
+    gate needs (``params.track_gate``; None: the clip's first frame), and
+    ``reference`` the posture reference of the previous frame's descriptor
+    (:func:`sim.model.posture.posture_reference`; None: none yet).
     """
     y_left, cb_left, cr_left = ycbcr422_to_444(left_bytes)
     y_right, _, _ = ycbcr422_to_444(right_bytes)
@@ -223,9 +251,17 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     band = disparity_band(disparity, params.band_low, params.band_high, params.max_disparity)
     hand = hand_mask(skin, band)
     opened = opening(hand, params.opening_shape, size=params.opening_size)
-    return FrameStages(y_left, y_right, disparity, skin, band, hand, opened,
-                       centroid(opened, previous=previous, track_gate=params.track_gate,
-                                hand_rows=params.hand_rows))
+    cen = centroid(opened, previous=previous, track_gate=params.track_gate,
+                   hand_rows=params.hand_rows)
+    if not params.posture:
+        return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, cen)
+    shape_mask = posture_mask(hand)
+    if params.posture_gate:
+        shape_mask = counted_pixels(shape_mask, previous=previous,
+                                    track_gate=params.posture_gate)
+    reference = reference or PostureReference(0, 0, 0)
+    return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, cen, shape_mask,
+                       posture_registers(shape_mask, reference), reference)
 
 
 #: Stages of the pipeline's stage-select video output (thesis Table 22, SW[9:7]).
@@ -254,6 +290,8 @@ class Trajectory(NamedTuple):
     smoothed: np.ndarray   #: (F, 2) int64 moving average, ``frac_bits`` fixed point
     flag: np.ndarray       #: (F,) bool, gesture in progress
     symbol: np.ndarray     #: (F,) int8 orientation symbol, NO_SYMBOL where none
+    #: (F, POSTURE_WORD_COUNT) int64: each frame's posture record (None without)
+    posture: np.ndarray | None = None
 
 
 def step_symbols(smoothed, flag) -> np.ndarray:
@@ -273,8 +311,10 @@ def step_symbols(smoothed, flag) -> np.ndarray:
     return symbols
 
 
-def track(centroids, areas, params: PipelineParams = PipelineParams()) -> Trajectory:
-    """Moving average, spotting and symbols for a clip's per-frame centroids (§7.2-7.4)."""
+def track(centroids, areas, params: PipelineParams = PipelineParams(),
+          posture=None) -> Trajectory:
+    """Moving average, spotting and symbols for a clip's per-frame centroids
+    (§7.2-7.4), with the frames' posture records (``posture``, kept as given)."""
     centroids = np.asarray(centroids, dtype=np.int64).reshape(-1, 2)
     areas = np.asarray(areas, dtype=np.int64).reshape(-1)
     if len(areas) != len(centroids):
@@ -284,7 +324,8 @@ def track(centroids, areas, params: PipelineParams = PipelineParams()) -> Trajec
     primed = np.logical_or.accumulate(valid) if len(valid) else valid
     flag = gesture_spotting(smoothed, primed, params.spot_window, params.spot_threshold,
                             params.spot_hold, params.frac_bits)
-    return Trajectory(centroids, areas, smoothed, flag, step_symbols(smoothed, flag))
+    return Trajectory(centroids, areas, smoothed, flag, step_symbols(smoothed, flag),
+                      None if posture is None else np.asarray(posture, np.int64))
 
 
 def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(), *,
@@ -307,16 +348,20 @@ def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(
     cents = np.zeros((frames, 2), np.int64)
     areas = np.zeros(frames, np.int64)
     kept: dict[int, FrameStages] = {}
-    previous = None
+    previous = reference = None
+    records = []
     for n in range(frames):
         stages = process_frame(left_frames[n], right_frames[n], params,
                                rectification=rectification, previous=previous,
-                               threads=threads)
+                               reference=reference, threads=threads)
         previous = stages.centroid
+        if stages.posture is not None:
+            records.append(stages.posture_words())
+            reference = posture_reference(stages.posture)
         cents[n] = stages.centroid.x, stages.centroid.y
         areas[n] = stages.centroid.area
         if keep(n):
             kept[n] = stages
         if progress is not None:
             progress(n + 1, frames)
-    return track(cents, areas, params), kept
+    return track(cents, areas, params, records if params.posture else None), kept

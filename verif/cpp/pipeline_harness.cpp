@@ -3,7 +3,7 @@
 // and phases, camera pins replayed from files, no Python per cycle.
 //
 // usage: pipeline_harness LEFT RIGHT OUT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
-//                         DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT
+//                         DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT POSTURE_OUT
 //   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
 //                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
 //                 last sample the camera idles with VSYNC high
@@ -15,6 +15,7 @@
 //                 held for RESET_CYCLES pipeline cycles
 //   VIDEO_SELECT  stage of the o_video output (hdl.gesture_pipeline.VIDEO_STAGES)
 //   VIDEO_OUT     file for the o_video beats, uint16 (first << 8) | pixel, or "-"
+//   POSTURE_OUT   file for the o_posture words, little-endian uint32 in order
 // Prints one JSON line: cycles, records, frames, faults, seconds, cycles_per_second.
 #include <chrono>
 #include <cstdint>
@@ -28,9 +29,10 @@
 #include "verilated.h"
 
 int main(int argc, char** argv) {
-    if (argc != 14) {
+    if (argc != 15) {
         std::fprintf(stderr, "usage: %s LEFT RIGHT OUT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS "
-                             "RIGHT_PHASE DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT\n",
+                             "RIGHT_PHASE DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT "
+                             "POSTURE_OUT\n",
                      argv[0]);
         return 2;
     }
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
 
     std::vector<int64_t> records;
     std::vector<uint16_t> video;
+    std::vector<uint32_t> posture;
     long index[2] = {-1, -1};  // camera sample on the pins
     long cycles = 0, done_at = -1;
     const long initial_reset = 8;
@@ -73,6 +76,7 @@ int main(int argc, char** argv) {
                                         top->out_area};
                 records.insert(records.end(), rec, rec + 7);
             }
+            if (top->posture_valid) posture.push_back(top->posture_word);
             if (want_video && top->video_valid)
                 video.push_back(static_cast<uint16_t>((top->video_first << 8) | top->video_pixel));
             ++cycles;
@@ -117,6 +121,13 @@ int main(int argc, char** argv) {
         }
         std::fclose(fv);
     }
+    FILE* fp = std::fopen(argv[14], "wb");
+    if (!fp || (!posture.empty() &&
+                std::fwrite(posture.data(), 4, posture.size(), fp) != posture.size())) {
+        std::fprintf(stderr, "cannot write %s\n", argv[14]);
+        return 1;
+    }
+    std::fclose(fp);
     std::printf("{\"cycles\": %ld, \"records\": %zu, \"frames\": %ld, \"faults\": %ld, "
                 "\"seconds\": %.6f, \"cycles_per_second\": %.1f}\n",
                 cycles, records.size() / 7, frames, faults, seconds,
