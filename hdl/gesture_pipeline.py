@@ -464,14 +464,28 @@ class PipelineTop(wiring.Component):
     """:class:`GesturePipeline` with its three clock domains declared, for the
     simulators and Verilog export: ports ``clk``/``rst`` (pipeline),
     ``cam_left_clk``/``cam_left_rst``, ``cam_right_clk``/``cam_right_rst`` and the
-    pipeline's own ports flattened."""
+    pipeline's own ports flattened.
 
-    def __init__(self, pipeline: GesturePipeline):
+    ``fold_posture``: instead of ``o_posture``, ``posture_parity`` (Out(4)),
+    the registered parities of its registered bits, a quarter each (the
+    place-and-route check, :mod:`hdl.place_route`: its package has 190 pins;
+    every bit of the record still reaches a pin).
+    """
+
+    #: Pins ``fold_posture`` leaves of ``o_posture``.
+    PARITY_PINS = 4
+
+    def __init__(self, pipeline: GesturePipeline, *, fold_posture: bool = False):
         self.pipeline = pipeline
+        self.fold_posture = bool(fold_posture)
+        members = dict(pipeline.signature.members)
+        if self.fold_posture:
+            del members["o_posture"]
+            members["posture_parity"] = Out(self.PARITY_PINS)
         super().__init__({
             "cam_left_clk": In(1), "cam_left_rst": In(1),
             "cam_right_clk": In(1), "cam_right_rst": In(1),
-            **pipeline.signature.members,
+            **members,
         })
 
     def elaborate(self, platform):
@@ -483,7 +497,17 @@ class PipelineTop(wiring.Component):
                          cd.rst.eq(getattr(self, f"{name}_rst"))]
         m.submodules.pipeline = p = self.pipeline
         for name, member in p.signature.members.items():
-            ours, theirs = getattr(self, name), getattr(p, name)
+            theirs = getattr(p, name)
+            if name == "o_posture" and self.fold_posture:
+                bits = Signal(len(Cat(theirs.valid, theirs.payload.as_value())),
+                              name="posture_bits")
+                m.d.sync += bits.eq(Cat(theirs.valid, theirs.payload.as_value()))
+                quarter = -(-len(bits) // self.PARITY_PINS)
+                m.d.sync += self.posture_parity.eq(Cat(*[
+                    bits[k * quarter:(k + 1) * quarter].xor()
+                    for k in range(self.PARITY_PINS)]))
+                continue
+            ours = getattr(self, name)
             if member.is_signature:
                 wiring.connect(m, wiring.flipped(ours), theirs)
             elif member.flow == In:

@@ -229,8 +229,9 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
                                                                                  height)))
     cameras = {"clk": sync_hz, "cam_left_clk": pclk_hz, "cam_right_clk": pclk_hz}
     if block == "pipeline":
-        return PipelineTop(GesturePipeline(width, height, params, rectification=rectification,
-                                           fifo_depth=fifo_depth)), cameras, False
+        pipeline = GesturePipeline(width, height, params, rectification=rectification,
+                                   fifo_depth=fifo_depth)
+        return PipelineTop(pipeline, fold_posture=params.posture), cameras, False
 
     def stage(name):
         # the block alone, as the pipeline builds it (nothing else is built)

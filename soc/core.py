@@ -8,6 +8,7 @@ Blocks, by clock domain::
     sync       (100 MHz)      GesturePipeline             ch. 5-7 pixels to (x, y, flag)
                               FifoSlave                   §7.4.1 Avalon-MM, bridge offset 0x000
                               UartSlave                   §8.5.1 Avalon-MM, bridge offset 0x100
+                              PostureSlave                §10.1  Avalon-MM, bridge offset 0x200
                               FrameBuffer (write side)    Table 22 stage-select video
     vga        (pixel clock)  FrameBuffer (read side)     640x480 at 60 Hz
 
@@ -42,14 +43,15 @@ from sim.model.vga import SCALE_RANGE
 from .clocks import CONFIG_HZ, SYNC_HZ
 from .fifo_slave import FifoSlave
 from .frame_buffer import NO_INIT_ATTR, VGA_SCALE, FrameBuffer
-from .hps_interface import DATA_BITS, FIFO_BASE, FIFO_DEPTH, UART_BASE
+from .hps_interface import DATA_BITS, FIFO_BASE, FIFO_DEPTH, POSTURE_BASE, UART_BASE
 from .ov5642_config import SCL_FREQ_RANGE, Ov5642Config
+from .posture_slave import PostureSlave
 from .uart import UartSlave
 from .vga_timing import VGA_640x480_60, VgaMode
 
 __all__ = ["StereogestCore", "CameraPins", "I2cPins", "CameraPowerPins", "CORE_NAME",
            "CLOCK_DOMAINS",
-           "FIFO_BASE", "UART_BASE", "FRAME_BUFFER_BITS", "core_ports", "emit_core_verilog",
+           "FIFO_BASE", "UART_BASE", "POSTURE_BASE", "FRAME_BUFFER_BITS", "core_ports", "emit_core_verilog",
            "strip_zero_init", "VGA_SCALE",
            "VIDEO_STAGES"]
 
@@ -111,7 +113,9 @@ class StereogestCore(wiring.Component):
 
     Ports
     -----
-    fifo, uart : ``In(AvalonSlaveSignature)``, the two slaves (sync domain).
+    fifo, uart, posture : ``In(AvalonSlaveSignature)``, the three slaves (sync
+        domain); the posture slave never completes a record without
+        ``params.posture``.
     left, right : ``In(CameraPins)`` in ``cam_left`` / ``cam_right``.
     left_i2c, right_i2c : ``Out(I2cPins)`` in ``config``.
     left_power, right_power : ``Out(CameraPowerPins)`` in ``config``: PWDN and
@@ -152,6 +156,7 @@ class StereogestCore(wiring.Component):
         self.fifo_slave = FifoSlave(data_bits=DATA_BITS, depth=fifo_depth,
                                     frame_width=width, frame_height=height)
         self.uart_slave = UartSlave(clk_freq=self.sync_freq, baudrate=uart_baudrate)
+        self.posture_slave = PostureSlave()
         self.config = [Ov5642Config(clk_freq=self.config_freq, scl_freq=scl_freq,
                                     table=config_table)
                        for _ in range(2)]
@@ -165,6 +170,7 @@ class StereogestCore(wiring.Component):
             **domain_ports,
             "fifo": self.fifo_slave.signature.members["bus"],
             "uart": self.uart_slave.signature.members["bus"],
+            "posture": self.posture_slave.signature.members["bus"],
             "left": In(CameraPins), "right": In(CameraPins),
             "left_i2c": Out(I2cPins), "right_i2c": Out(I2cPins),
             "left_power": Out(CameraPowerPins), "right_power": Out(CameraPowerPins),
@@ -192,7 +198,7 @@ class StereogestCore(wiring.Component):
         m.submodules.stage_sync = cdc.FFSynchronizer(self.stage_select, stage)
         m.d.comb += pipe.video_select.eq(stage)
 
-        # --- HPS side: centroid FIFO and robot UART ---------------------------------------
+        # --- HPS side: centroid FIFO, robot UART, posture record -------------------------
         m.submodules.fifo_slave = fifo = self.fifo_slave
         wiring.connect(m, wiring.flipped(self.fifo), fifo.bus)
         rec = pipe.o_stream
@@ -201,6 +207,9 @@ class StereogestCore(wiring.Component):
                      fifo.i_stream.payload.y.eq(rec.payload.y),
                      fifo.i_stream.payload.flag.eq(rec.payload.flag),
                      fifo.i_stream.payload.present.eq(rec.payload.area != 0)]
+        m.submodules.posture_slave = posture = self.posture_slave
+        wiring.connect(m, wiring.flipped(self.posture), posture.bus)
+        wiring.connect(m, pipe.o_posture, posture.i_stream)
         m.submodules.uart_slave = uart = self.uart_slave
         wiring.connect(m, wiring.flipped(self.uart), uart.bus)
         m.d.comb += [self.uart_tx.eq(uart.tx), uart.rx.eq(self.uart_rx)]

@@ -31,6 +31,8 @@ __all__ = [
     "UART_STATUS_RX_VALID",
     "POSTURE_SECTORS", "POSTURE_RING_EDGES_16THS", "POSTURE_RINGS", "POSTURE_BANDS",
     "POSTURE_BAND_SPAN", "POSTURE_WORDS", "POSTURE_WORD_COUNT", "posture_word_offsets",
+    "POSTURE_BASE", "POSTURE_REGISTERS", "POSTURE_STATUS", "POSTURE_INDEX", "POSTURE_DATA",
+    "POSTURE_LAYOUT", "POSTURE_SPAN", "POSTURE_STATUS_SEQ", "posture_layout_word",
 ]
 
 #: Access kinds of registers and fields: read (a read may pop), write, read/write,
@@ -141,9 +143,10 @@ LIGHTWEIGHT_BRIDGE_BASE = 0xFF200000
 #: Bytes each slave's window takes on the bridge (slave bases are multiples of it).
 SLAVE_WINDOW = 0x100
 #: Byte offset of each slave of the core from the bridge's base.
-SLAVE_BASES = {"fifo": 0x000, "uart": 0x100}
+SLAVE_BASES = {"fifo": 0x000, "uart": 0x100, "posture": 0x200}
 FIFO_BASE = SLAVE_BASES["fifo"]
 UART_BASE = SLAVE_BASES["uart"]
+POSTURE_BASE = SLAVE_BASES["posture"]
 
 # ---- the centroid FIFO's data ---------------------------------------------------
 #: Fractional bits of Dato_X / Dato_Y (10.8 fixed point, thesis eq. 27).
@@ -289,6 +292,42 @@ def posture_word_offsets() -> dict:
         offsets[name] = at
         at += count
     return offsets
+
+
+#: The posture slave (ours, §10.1): the latest frame's record, read a word at
+#: a time. Two records are kept: the hardware writes one while the other is read.
+POSTURE_REGISTERS = RegisterMap("posture", span=0x10, registers=(
+    Register("Status", 0x00, "R", "records so far", (
+        Field("SEQ", 0, 16, "R", "records completed since reset (wraps); a reader that "
+                                 "sees it advance by 2 or more while it reads a record "
+                                 "reads it again"),)),
+    Register("Index", 0x04, "RW", "the next Data read's word; a write also chooses the "
+             "record Data reads: the latest complete one", (
+        Field("index", 0, 8, "RW", "word index, 0 .. POSTURE_WORD_COUNT - 1"),)),
+    Register("Data", 0x08, "R", "the record's word at Index (POSTURE_WORDS), then Index "
+             "+= 1; 0 past the last word"),
+    Register("Layout", 0x0C, "R", "the record's layout, so that the reader checks it "
+             "has the same", (
+        Field("SECTORS", 0, 8, "R", "POSTURE_SECTORS"),
+        Field("RINGS", 8, 4, "R", "POSTURE_RINGS"),
+        Field("BANDS", 12, 4, "R", "POSTURE_BANDS"),
+        Field("WORDS", 16, 12, "R", "POSTURE_WORD_COUNT"),
+    )),
+))
+POSTURE_STATUS = POSTURE_REGISTERS["Status"].offset
+POSTURE_INDEX = POSTURE_REGISTERS["Index"].offset
+POSTURE_DATA = POSTURE_REGISTERS["Data"].offset
+POSTURE_LAYOUT = POSTURE_REGISTERS["Layout"].offset
+POSTURE_SPAN = POSTURE_REGISTERS.span
+POSTURE_STATUS_SEQ = POSTURE_REGISTERS["Status"]["SEQ"].mask
+
+
+def posture_layout_word() -> int:
+    """What the posture slave's Layout register reads."""
+    fields = POSTURE_REGISTERS["Layout"]
+    values = {"SECTORS": POSTURE_SECTORS, "RINGS": POSTURE_RINGS, "BANDS": POSTURE_BANDS,
+              "WORDS": POSTURE_WORD_COUNT}
+    return sum(value << fields[name].bit for name, value in values.items())
 
 
 # ---- the gesture classes --------------------------------------------------------

@@ -47,9 +47,12 @@ M10K_CONSUMERS = (
     ("disparity median", "pipeline.matcher.median."),
     ("segmentation", "pipeline.segmentation."),
     ("opening", "pipeline.opening."),
+    ("posture opening", "pipeline.posture_opening."),
+    ("posture descriptor", "pipeline.posture."),
     ("spotting", "pipeline.spotting."),
     ("centroid FIFO (FifoSlave)", "fifo_slave."),
     ("UART FIFO", "uart_slave."),
+    ("posture record (PostureSlave)", "posture_slave."),
     ("OV5642 register ROMs", "config_"),
 )
 
@@ -191,7 +194,9 @@ def estimate(width: int = 640, height: int = 480, progress=None, rectification=N
     return {
         "design": CORE_NAME, "width": width, "height": height,
         "vga_scale": vga_scale, "rectification": rectification is not None,
-        "hand_tracking": {"track_gate": params.track_gate, "hand_rows": params.hand_rows},
+        "hand_tracking": {"track_gate": params.track_gate, "hand_rows": params.hand_rows,
+                          "posture_gate": params.posture_gate},
+        "posture": params.posture,
         "tool": worst["tool"] + " synth_intel_alm -family cyclonev, one run per part",
         "parts": {name: {key: s[field] for key, field in keys.items()}
                   for name, s in synth.items()},

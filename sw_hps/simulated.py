@@ -42,13 +42,15 @@ from .fifo import (CONTROL, CORE_MAGIC, CTRL_FIFO_CLR, CTRL_FIFO_DATA, CTRL_FIFO
                    FRAME_WIDTH as FIFO_FRAME_WIDTH, ID, LONGITUD_X, LONGITUD_Y, REGISTER_SPAN,
                    VERSION, FifoPeripheral, to_fixed)
 from .hmm import GestureModels
-from soc.hps_interface import (UART_RXDATA, UART_SPAN, UART_STATUS, UART_STATUS_RX_VALID,
-                               UART_STATUS_TX_READY, UART_TXDATA, version_word)
+from soc.hps_interface import (POSTURE_DATA, POSTURE_INDEX, POSTURE_LAYOUT, POSTURE_SPAN,
+                               POSTURE_STATUS, POSTURE_WORD_COUNT, UART_RXDATA, UART_SPAN,
+                               UART_STATUS, UART_STATUS_RX_VALID, UART_STATUS_TX_READY,
+                               UART_TXDATA, posture_layout_word, version_word)
 
 from .robot import RN42_GUARD_TIME, NullLink, normalise_bt_address
 from .telegram import NXT_DIRECT_NO_REPLY, NXT_MESSAGEWRITE, NXT_REPLY
 
-__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "SimulatedRn42", "read_trajectory_csv",
+__all__ = ["SimulatedFifoPeripheral", "SimulatedUart", "SimulatedPostureSlave", "SimulatedRn42", "read_trajectory_csv",
            "SimulatedClock", "SimulationRun", "simulate_trajectory", "run_on_trajectory",
            "streaming_words", "simulate_stream", "run_stream"]
 
@@ -309,6 +311,57 @@ class SimulatedUart:
         self._busy = self.busy_reads
         if self.responder is not None:
             self.receive_queue.extend(self.responder(value & 0xFF))
+
+
+class SimulatedPostureSlave:
+    """The posture slave (:data:`soc.hps_interface.POSTURE_REGISTERS`,
+    :class:`soc.posture_slave.PostureSlave`): two banks of 256 words, the
+    latest complete record and the one being written.
+
+    Attributes
+    ----------
+    records : int
+        Records pushed so far (Status.SEQ is its low 16 bits).
+    """
+
+    span = POSTURE_SPAN
+    BANK_WORDS = 256
+
+    def __init__(self):
+        self.banks = [[0] * self.BANK_WORDS, [0] * self.BANK_WORDS]
+        self.latest = 0          # the bank of the latest complete record
+        self.chosen = 0          # the bank Data reads
+        self.index = 0
+        self.records = 0
+
+    def push_record(self, words) -> None:
+        """One frame's record (``POSTURE_WORD_COUNT`` 32-bit words), as the
+        descriptor sends it: written into the other bank, then the latest."""
+        words = [int(w) for w in words]
+        if len(words) != POSTURE_WORD_COUNT or any(not 0 <= w < 1 << 32 for w in words):
+            raise ValueError(f"a posture record is {POSTURE_WORD_COUNT} words in [0, 2**32)")
+        bank = self.banks[1 - self.latest]
+        bank[:POSTURE_WORD_COUNT] = words
+        self.latest = 1 - self.latest
+        self.records += 1
+
+    def read32(self, offset: int) -> int:
+        if offset == POSTURE_STATUS:
+            return self.records & 0xFFFF
+        if offset == POSTURE_INDEX:
+            return self.index
+        if offset == POSTURE_DATA:
+            word = self.banks[self.chosen][self.index]
+            self.index = (self.index + 1) % self.BANK_WORDS
+            return word
+        if offset == POSTURE_LAYOUT:
+            return posture_layout_word()
+        return 0
+
+    def write32(self, offset: int, value: int) -> None:
+        if offset == POSTURE_INDEX:
+            self.index = value & (self.BANK_WORDS - 1)
+            self.chosen = self.latest
 
 
 class SimulatedRn42:

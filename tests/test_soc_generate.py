@@ -504,7 +504,8 @@ def test_system_tcl_puts_the_slaves_where_sw_hps_looks(files, core_ports, top_po
         master, slave = conn.split("/")
         assert master == "hps_0.h2f_lw_axi_master" and (master, slave) in connections
         bases[slave] = int(value, 16)
-    assert bases == {"stereogest_core_0.fifo": 0x0000, "stereogest_core_0.uart": 0x0100}
+    assert bases == {"stereogest_core_0.fifo": 0x0000, "stereogest_core_0.uart": 0x0100,
+                     "stereogest_core_0.posture": 0x0200}
     # sw_hps: FIFO at the bridge base (default --bridge-offset 0), UART 0x100 above it
     assert LIGHTWEIGHT_BRIDGE_BASE + bases["stereogest_core_0.fifo"] == 0xFF200000
     assert run_default_uart_offset() == bases["stereogest_core_0.uart"]

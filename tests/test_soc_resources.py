@@ -126,7 +126,7 @@ def test_estimate_sets_the_figures_beside_table_23_and_the_device(monkeypatch):
     assert use["consumers"]["frame buffer (VGA view)"] == 52
     assert use["consumers"]["pipeline"] == 51       # a memory of no known consumer
     assert report["vga_scale"] == 2 and report["rectification"] is False
-    assert report["hand_tracking"] == {"track_gate": 0, "hand_rows": 0}
+    assert report["hand_tracking"] == {"track_gate": 0, "hand_rows": 0, "posture_gate": 0}
 
 
 def test_estimate_builds_the_core_it_is_asked_for(monkeypatch):

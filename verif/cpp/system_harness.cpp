@@ -13,7 +13,7 @@
 //   VGA_*         active area of the VGA mode
 // Commands (one per line, one reply line each):
 //   r ADDR        Avalon read at byte address ADDR (0x000-0x0ff FIFO slave,
-//                 0x100-0x1ff UART slave) -> "VALUE"
+//                 0x100-0x1ff UART slave, 0x200-0x2ff posture slave) -> "VALUE"
 //   w ADDR VALUE  Avalon write -> "ok"
 //   t NS          run NS nanoseconds -> "CYCLES DONE" (DONE: both cameras played out)
 //   v PATH        the next whole VGA frame's active area, red channel, to PATH
@@ -89,12 +89,15 @@ struct System {
             if (step()) --n;
     }
 
+    // the slave at a bridge offset: 0x000 FIFO, 0x100 UART, 0x200 posture
     uint32_t read(uint32_t address) {
-        const bool uart = address >= 0x100;
-        const uint32_t word = (address & 0xff) >> 2;
-        if (uart) {
+        const uint32_t slave = address >> 8, word = (address & 0xff) >> 2;
+        if (slave == 1) {
             top->uart_address = word;
             top->uart_read = 1;
+        } else if (slave == 2) {
+            top->posture_address = word;
+            top->posture_read = 1;
         } else {
             top->fifo_address = word;
             top->fifo_read = 1;
@@ -102,18 +105,23 @@ struct System {
         sync_cycles(1);  // the slave sees the read at this edge
         top->fifo_read = 0;
         top->uart_read = 0;
+        top->posture_read = 0;
         top->eval();
         // fixed read latency 1: readdata holds the value during the next cycle
-        return uart ? top->uart_readdata : top->fifo_readdata;
+        return slave == 1 ? top->uart_readdata
+                          : slave == 2 ? top->posture_readdata : top->fifo_readdata;
     }
 
     void write(uint32_t address, uint32_t value) {
-        const bool uart = address >= 0x100;
-        const uint32_t word = (address & 0xff) >> 2;
-        if (uart) {
+        const uint32_t slave = address >> 8, word = (address & 0xff) >> 2;
+        if (slave == 1) {
             top->uart_address = word;
             top->uart_writedata = value;
             top->uart_write = 1;
+        } else if (slave == 2) {
+            top->posture_address = word;
+            top->posture_writedata = value;
+            top->posture_write = 1;
         } else {
             top->fifo_address = word;
             top->fifo_writedata = value;
@@ -122,6 +130,7 @@ struct System {
         sync_cycles(1);
         top->fifo_write = 0;
         top->uart_write = 0;
+        top->posture_write = 0;
         top->eval();
     }
 
