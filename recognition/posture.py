@@ -46,12 +46,15 @@ FOREARM_SHARE, FOREARM_SHRINK = 0.5, (0.6, 1.0)
 @dataclass
 class PostureSet:
     """Labelled pictures: ``image`` (N, H, W, 3) uint8 RGB, ``label`` (N,) ints
-    indexing ``class_names``, ``subject`` (N,) ints or None."""
+    indexing ``class_names``, ``subject`` (N,) ints or None, ``mask`` (N, H, W)
+    bool or None: the camera's segmented mask of each picture (rendered
+    frames through the pipeline), used instead of the picture path."""
 
     image: np.ndarray
     label: np.ndarray
     class_names: list
     subject: np.ndarray | None
+    mask: np.ndarray | None = None
 
     def __len__(self):
         return len(self.label)
@@ -60,7 +63,9 @@ class PostureSet:
 def load_postures(path) -> PostureSet:
     """A DATA.npz of pictures: ``image`` (N x H x W x 3 uint8 RGB), ``label``
     (ints, indexing ``class_names`` if given, else 0-9 as ``asl0`` ...
-    ``asl9``), optional ``subject``. ``ValueError`` names the file and the key."""
+    ``asl9``), optional ``subject`` and ``mask`` (N x H x W bool: the
+    pipeline's segmented mask of each picture, :mod:`recognition.posture_renders`).
+    ``ValueError`` names the file and the key."""
     from recognition.datasets import read_npz
     path = Path(path)
     if not path.is_file():
@@ -96,8 +101,12 @@ def load_postures(path) -> PostureSet:
                                 or len(subject) != len(label)):
         raise ValueError(f"{path}: subject must be {len(label)} integers, got "
                          f"{subject.dtype} {subject.shape}")
+    mask = arrays.get("mask")
+    if mask is not None and (mask.dtype != bool or mask.shape != image.shape[:3]):
+        raise ValueError(f"{path}: mask must be bool N x H x W like image {image.shape[:3]}, "
+                         f"got {mask.dtype} {mask.shape}")
     return PostureSet(image, label.astype(np.int64), names,
-                      None if subject is None else subject.astype(np.int64))
+                      None if subject is None else subject.astype(np.int64), mask)
 
 
 def picture_hand(image) -> np.ndarray:
@@ -114,9 +123,11 @@ def picture_hand(image) -> np.ndarray:
 
 
 def picture_masks(data: PostureSet, name="DATA.npz") -> np.ndarray:
-    """The hand mask of every picture; ``ValueError`` naming the file and the
-    first picture without a skin-coloured pixel (nothing to describe)."""
-    masks = np.array([picture_hand(image) for image in data.image], dtype=bool)
+    """The hand mask of every picture (the file's ``mask`` if it has one);
+    ``ValueError`` naming the file and the first picture without a
+    skin-coloured pixel (nothing to describe)."""
+    masks = data.mask if data.mask is not None else \
+        np.array([picture_hand(image) for image in data.image], dtype=bool)
     empty = np.nonzero(~masks.any(axis=(1, 2)))[0]
     if len(empty):
         raise ValueError(f"{name}: image {int(empty[0])} has no skin-coloured pixel (Cb, Cr "

@@ -49,8 +49,9 @@ class LiveSession:
     """
 
     def __init__(self, params, models, *, threads: int | None = None,
-                 spotting: str = "thesis", width: int | None = None):
+                 spotting: str = "thesis", width: int | None = None, posture_model=None):
         self.params, self.models, self.threads = params, models, threads
+        self.posture_model = posture_model
         if spotting not in ("thesis", "continuous"):
             raise ValueError(f"spotting must be 'thesis' or 'continuous', got {spotting!r}")
         self.spotting = spotting
@@ -61,12 +62,14 @@ class LiveSession:
         self.lock = threading.Lock()
         self.frames = 0
         self.recognised: list[dict] = []
-        self.state = {"frame": -1, "fps": 0.0, "centroid": None, "flag": False,
+        self.state = {"frame": -1, "fps": 0.0, "centroid": None, "flag": False, "posture": None,
                       "recognised": None, "telegram": None, "recognised_at": None,
                       "history": [], "gestures": [], "done": False, "error": None}
         self.pictures: dict[str, bytes] = {}
         self._cents: list = []
         self._previous = None      # the last frame's centroid (hand tracking's gate)
+        self._reference = None     # the last frame's posture reference
+        self._postures: list = []  # each frame's posture name (None: none), as _cents
         self._areas: list = []
         self._first = 0            # frame number of _cents[0]
         self._times: list = []
@@ -84,13 +87,14 @@ class LiveSession:
         from sim.pictures import disparity_picture, trajectory_picture
         p = self.params
         stages = process_frame(left_bytes, right_bytes, p, threads=self.threads,
-                               previous=self._previous)
+                               previous=self._previous, reference=self._reference)
         self._previous = stages.centroid
+        self._postures.append(self._posture(stages))
         self._cents.append((stages.centroid.x, stages.centroid.y))
         self._areas.append(stages.centroid.area)
         if len(self._cents) > HISTORY:
             drop = len(self._cents) - HISTORY
-            del self._cents[:drop], self._areas[:drop]
+            del self._cents[:drop], self._areas[:drop], self._postures[:drop]
             self._first += drop
         n = self.frames
         traj = track(np.array(self._cents, np.int64), np.array(self._areas, np.int64), p)
@@ -122,12 +126,29 @@ class LiveSession:
             self.frames += 1
             self.pictures = encoded
             self.state.update(
-                frame=n, flag=flag, area=int(stages.centroid.area),
+                frame=n, flag=flag, area=int(stages.centroid.area), posture=self._postures[-1],
                 centroid=[round(float(x), 1), round(float(y), 1)] if stages.centroid.area
                 else None,
                 fps=round((len(self._times) - 1) / max(1e-9, now - self._times[0]), 1)
                 if len(self._times) > 1 else 0.0)
             return dict(self.state)
+
+    def _posture(self, stages):
+        """The frame's posture by the posture model (None: no model, no
+        record, no hand, or refused); keeps the reference for the next frame."""
+        from sim.model.posture import posture_reference
+        from sw_hps.posture import decode_posture_words, record_features
+        if stages.posture is None:
+            return None
+        self._reference = posture_reference(stages.posture)
+        words = stages.posture_words()
+        if self.posture_model is None or not words[1]:
+            return None
+        return self.posture_model.classify(record_features(decode_posture_words(words)))
+
+    def _with_posture(self, entry: dict) -> dict:
+        from stereogest.pipeline_outputs import add_postures
+        return add_postures([entry], self._postures, first_frame=self._first)[0]
 
     def _recognise(self, traj, n: int) -> None:
         """The board application on the frames so far (a simulated FIFO): the
@@ -139,8 +160,8 @@ class LiveSession:
         last = results[-1]
         with self.lock:
             if last["outcome"] == "recognised":
-                self.gestures = self.gestures + [{key: last[key] for key in (
-                    "name", "first", "last", "telegram", "score")}]
+                self.gestures = self.gestures + [self._with_posture({key: last[key] for key in (
+                    "name", "first", "last", "telegram", "score")})]
                 self.state["gestures"] = self.gestures
                 self.state.update(recognised=last["name"], telegram=last["telegram"],
                                   recognised_at=n)
@@ -153,8 +174,8 @@ class LiveSession:
         from sw_hps.telegram import GESTURE_NAMES, telegram
         for d in detections:
             code = telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None
-            entry = {"name": d.name, "first": d.first, "last": d.last, "telegram": code,
-                     "score": round(float(d.score), 3)}
+            entry = self._with_posture({"name": d.name, "first": d.first, "last": d.last,
+                                        "telegram": code, "score": round(float(d.score), 3)})
             with self.lock:
                 self.gestures = self.gestures + [entry]
                 self.state["gestures"] = self.gestures
@@ -230,7 +251,8 @@ img {{ width: {w}px; height: {h}px; background: #333; display: block; }}
 </style></head><body>
 <h1>stereogest live: golden model and recogniser, frame by frame</h1>
 <div id="status">frame <span id="frame">-</span> &middot; <span id="fps">0</span> frames/s
-&middot; <span id="flag">no gesture</span> &middot; centroid <span id="centroid">-</span></div>
+&middot; <span id="flag">no gesture</span> &middot; centroid <span id="centroid">-</span>
+&middot; posture <span id="posture">-</span></div>
 <div>last recognised gesture: <span id="gesture">none yet</span>
 <span id="telegram"></span></div>
 <div>commands sent: <span id="commands">none yet</span></div><p></p>
@@ -253,6 +275,7 @@ async function tick() {{
     document.getElementById('flag').textContent = s.flag ? 'GESTURE' : 'no gesture';
     document.getElementById('centroid').textContent =
       s.centroid ? '(' + s.centroid[0] + ', ' + s.centroid[1] + ')' : '-';
+    document.getElementById('posture').textContent = s.posture || '-';
     if (s.recognised_at !== null) {{
       document.getElementById('gesture').textContent = s.recognised || 'none';
       document.getElementById('telegram').textContent =
@@ -260,7 +283,8 @@ async function tick() {{
     }}
     if (s.gestures.length)
       document.getElementById('commands').textContent = s.gestures.map(
-        g => g.name + ' (frames ' + g.first + '-' + g.last + ')').join(', ');
+        g => g.name + ' (frames ' + g.first + '-' + g.last
+             + (g.posture ? ', ' + g.posture : '') + ')').join(', ');
     if (s.error) document.getElementById('status').textContent = 'stopped: ' + s.error;
   }} catch (e) {{}}
   setTimeout(tick, 100);

@@ -114,6 +114,47 @@ def shipped_model_path(spotting: str = "thesis") -> Path:
     return Path(sw_hps.__file__).parent / "models" / name
 
 
+def shipped_posture_model_path() -> Path:
+    """The posture classifier shipped with the board application (``make model``)."""
+    import sw_hps
+    return Path(sw_hps.__file__).parent / "models" / "posture.json"
+
+
+def load_posture_model(path=None):
+    """The posture classifier at ``path`` (None: the shipped one), refused with a
+    ``ValueError`` naming the file as the board application refuses it."""
+    from sw_hps.posture import read_posture_model
+    return read_posture_model(shipped_posture_model_path() if path is None else path)
+
+
+def frame_postures(model, trajectory) -> list:
+    """Each frame's posture name (None: refused, or no posture record) by
+    ``model`` from the trajectory's posture records."""
+    from sw_hps.posture import decode_posture_words, record_features
+    if model is None or trajectory.posture is None or not len(trajectory.posture):
+        return [None] * len(trajectory.flag)
+    features = np.array([record_features(decode_posture_words(words))
+                         for words in trajectory.posture])
+    return [None if k < 0 or not record[1] else model.class_names[k]
+            for k, record in zip(model.decide(features), trajectory.posture)]
+
+
+def add_postures(entries: list[dict], postures: list, first_frame: int = 0) -> list[dict]:
+    """``entries`` (:func:`recognised_gestures`) with ``posture``, the posture held
+    over most of the gesture's frames (``postures``: :func:`frame_postures`;
+    None when it is refused or unknown there), and ``posture_share``, the
+    share of its frames in it."""
+    from sw_hps.posture import held_posture
+    out = []
+    for entry in entries:
+        first, last = entry.get("first"), entry.get("last")
+        span = postures[first - first_frame:last - first_frame + 1] \
+            if first is not None and last is not None else []
+        name, share = held_posture(span)
+        out.append(dict(entry, posture=name, posture_share=share))
+    return out
+
+
 def load_board_models(path=None, spotting: str = "thesis"):
     """The models at ``path`` (None: the shipped ones of that spotting mode),
     refused with a ``ValueError`` naming the file if the board application
@@ -216,7 +257,8 @@ def sequence_score(results: list[dict], sequence) -> dict:
 def recognised_gestures(results: list[dict]) -> list[dict]:
     """The recognised entries of :func:`board_results` as ``--json`` lists
     them: ``name``, ``first``, ``last``, ``telegram``, ``score``."""
-    return [{key: r[key] for key in ("name", "first", "last", "telegram", "score")}
+    return [{key: r[key] for key in ("name", "first", "last", "telegram", "score")
+             + tuple(k for k in ("posture", "posture_share") if k in r)}
             for r in results if r["outcome"] == "recognised"]
 
 

@@ -60,8 +60,8 @@ through, and if it dies of SIGBUS (or SIGSEGV) the supervisor logs one error lin
 naming the device, the address window, the likely cause and ``--check``, then exits
 with status 1 (the service manager restarts it), or with ``--fault-retries N`` first
 starts it again up to N times in a row after a growing wait (:mod:`sw_hps.guard`).
-SIGHUP reloads: the model file is loaded and checked again and, if good, the
-application restarts with it; a bad one is refused in one line and the running
+SIGHUP reloads: the model file (and ``--posture-model``) is loaded and checked
+again and, if good, the application restarts with it; a bad one is refused in one line and the running
 application keeps its model. ``--bus sim`` runs in one process without the supervisor (SIGHUP is not
 handled there).
 
@@ -180,6 +180,10 @@ def build_parser() -> argparse.ArgumentParser:
                         f"(default {DEFAULT_HEARTBEAT:g})")
     parser.add_argument("--sim-trajectory",
                         help="with --bus sim: trajectory.csv to play (frame,x,y,flag)")
+    parser.add_argument("--posture-model",
+                        help="with --spotting continuous: posture classifier (JSON, "
+                        "'stereogest train-posture') naming each gesture's posture from the "
+                        "posture slave's records (default: none)")
     parser.add_argument("--spotting", default="thesis", choices=("thesis", "continuous"),
                         help="thesis: the FPGA's flag marks each gesture (default); "
                         "continuous: every frame streamed, gestures found one after another "
@@ -280,6 +284,7 @@ def _make_link(args, bus):
 def _run_streaming(args, models, bus, link, started) -> int:
     """--spotting continuous: the streaming loop on the bus (a simulated FIFO
     playing --sim-trajectory with --bus sim)."""
+    models, posture_model = models
     if args.bus == "sim" and args.sim_trajectory is not None:
         x, y, _flag = read_trajectory_csv(args.sim_trajectory)
         app = simulate_stream(models, x, y, pixels=True, link=link, bus=bus,
@@ -291,7 +296,15 @@ def _run_streaming(args, models, bus, link, started) -> int:
         return 0
     if args.bus == "sim":
         bus.attach(0, SimulatedFifoPeripheral(reads_per_frame=1))
-    app = StreamingApp(models, FifoPeripheral(bus), link, poll_interval=args.poll_ms / 1000.0)
+    posture = None
+    if posture_model is not None:
+        from .posture import POSTURE_OFFSET, PostureReader, PostureTracker
+        if args.bus == "sim":
+            from .simulated import SimulatedPostureSlave
+            bus.attach(POSTURE_OFFSET, SimulatedPostureSlave())
+        posture = PostureTracker(PostureReader(bus), posture_model)
+    app = StreamingApp(models, FifoPeripheral(bus), link, poll_interval=args.poll_ms / 1000.0,
+                       posture=posture)
     started(app)
     log.info("running (continuous spotting): bus %s, robot %s, %d classes %s", args.bus,
              args.robot, len(models.class_names), list(models.class_names))
@@ -301,15 +314,22 @@ def _run_streaming(args, models, bus, link, started) -> int:
 
 
 def _load_models(args):
-    """The model file, checked for the chosen spotting (at start, and by the guard on
-    SIGHUP); ``UsageError`` / ``ValueError`` with a one-line message."""
+    """The model file, checked for the chosen spotting, and the posture model
+    or None (at start, and by the guard on SIGHUP): ``(models, posture)``;
+    ``UsageError`` / ``ValueError`` with a one-line message."""
     models = check_models(load_models(args.model))
     if args.spotting == "continuous":
         try:
             check_streaming_models(models)
         except ValueError as exc:
             raise UsageError(f"argument --spotting: {exc}") from None
-    return models
+    posture = None
+    if args.posture_model is not None:
+        if args.spotting != "continuous":
+            raise UsageError("argument --posture-model: goes with --spotting continuous")
+        from .posture import read_posture_model
+        posture = read_posture_model(args.posture_model)
+    return models, posture
 
 
 def main(argv=None, *, guard: bool = False) -> int:
@@ -335,7 +355,7 @@ def main(argv=None, *, guard: bool = False) -> int:
                          if args.bus == "devmem" else f"--bus uio, {args.uio}")
                 return supervise(check, where=where)
             return check()
-        models = _load_models(args)
+        models = _load_models(args)       # (HMMs, posture model or None)
         trajectory = read_trajectory_csv(args.sim_trajectory) \
             if args.sim_trajectory is not None else None
     except (UsageError, ValueError) as exc:
@@ -422,6 +442,7 @@ def _serve(args, models, trajectory, bus) -> int:
         if args.spotting == "continuous":
             return _run_streaming(args, models, bus, link,
                                   lambda running: app_box.__setitem__(0, running))
+        models = models[0]
         if args.bus == "sim" and trajectory is not None:
             x, y, flag = trajectory
             simulation = simulate_trajectory(models, x, y, flag, link=link, bus=bus,

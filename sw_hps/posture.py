@@ -20,10 +20,19 @@ import base64
 
 import numpy as np
 
-from soc.hps_interface import POSTURE_WORD_COUNT, POSTURE_WORDS, posture_word_offsets
+from soc.hps_interface import (FIFO_BASE, POSTURE_BASE, POSTURE_DATA, POSTURE_INDEX,
+                               POSTURE_LAYOUT, POSTURE_STATUS, POSTURE_STATUS_SEQ,
+                               POSTURE_WORD_COUNT, POSTURE_WORDS, posture_layout_word,
+                               posture_word_offsets)
 
 __all__ = ["POSTURE_FORMAT", "POSTURE_VERSION", "PostureModel", "posture_features",
-           "read_posture_model", "decode_posture_words", "record_features"]
+           "read_posture_model", "decode_posture_words", "record_features", "PostureReader",
+           "POSTURE_OFFSET", "BUS_ACCESSES_PER_RECORD", "held_posture", "PostureTracker"]
+
+#: The posture slave's offset from the FIFO slave's (the application's window base).
+POSTURE_OFFSET = POSTURE_BASE - FIFO_BASE
+#: Bus accesses per record read: Status, the Index write, the words, Status.
+BUS_ACCESSES_PER_RECORD = POSTURE_WORD_COUNT + 3
 
 POSTURE_FORMAT = "stereogest-posture"
 POSTURE_VERSION = 1
@@ -85,6 +94,113 @@ def record_features(record):
     """The classifier's input from a decoded record (:func:`decode_posture_words`)."""
     return posture_features(record["polar"], record["band_sum"], record["band_rows"],
                             record["band_max"], record["reference"][2])
+
+
+class PostureReader:
+    """The latest frame's posture record from the posture slave
+    (:data:`soc.hps_interface.POSTURE_REGISTERS`) at ``offset`` of ``bus``.
+
+    :meth:`read` takes a record at most once (by Status.SEQ), in
+    :data:`BUS_ACCESSES_PER_RECORD` accesses; a record that two newer ones
+    may have overwritten while it was read (SEQ advanced by 2 or more) is read
+    again, up to ``retries`` times.
+
+    Attributes
+    ----------
+    records, torn : int
+        Records read, and reads given up or repeated because they may be torn.
+    """
+
+    def __init__(self, bus, offset=POSTURE_OFFSET, retries=2):
+        self.bus, self.offset, self.retries = bus, int(offset), int(retries)
+        self.last_seq = None
+        self.records = 0
+        self.torn = 0
+
+    def _read(self, register):
+        return self.bus.read32(self.offset + register)
+
+    def layout_ok(self):
+        """Whether the slave's record has this application's layout (Layout)."""
+        return self._read(POSTURE_LAYOUT) == posture_layout_word()
+
+    def read(self):
+        """``(seq, words)`` of a record not read before, or None (none new, or
+        one torn ``retries + 1`` times)."""
+        for _ in range(self.retries + 1):
+            seq = self._read(POSTURE_STATUS) & POSTURE_STATUS_SEQ
+            if seq == self.last_seq or (seq == 0 and self.last_seq is None):
+                return None           # none new (0 before the first: none yet)
+            self.bus.write32(self.offset + POSTURE_INDEX, 0)
+            words = [self._read(POSTURE_DATA) for _ in range(POSTURE_WORD_COUNT)]
+            after = self._read(POSTURE_STATUS) & POSTURE_STATUS_SEQ
+            if (after - seq) & POSTURE_STATUS_SEQ < 2:
+                self.last_seq = seq
+                self.records += 1
+                return seq, words
+            self.torn += 1
+        return None
+
+
+def held_posture(names):
+    """The posture held over most of a gesture's frames (``names``: each
+    frame's posture, None where refused or unknown) and the share of the
+    frames in it: ``(name, share)``; a tie goes to a named posture; ``(None,
+    None)`` for no frames."""
+    names = list(names)
+    if not names:
+        return None, None
+    counts = {}
+    for name in names:
+        counts[name] = counts.get(name, 0) + 1
+    best = max(counts, key=lambda n: (counts[n], n is not None))
+    return best, round(counts[best] / len(names), 3)
+
+
+class PostureTracker:
+    """Each frame's posture while the board application streams: at each poll
+    the latest record (:class:`PostureReader`) is classified by ``model`` and
+    kept for the frame the poll reached (the last ``keep`` frames); a
+    gesture's posture is then :meth:`held` over its frames. A fault of the
+    reader or the model costs that frame's posture, never the loop.
+
+    Attributes
+    ----------
+    errors : int
+        Polls that raised (the frame's posture is unknown).
+    """
+
+    def __init__(self, reader, model, keep=1024):
+        self.reader, self.model, self.keep = reader, model, int(keep)
+        self.names = {}
+        self.errors = 0
+        self.last = None         # the latest frame's posture
+
+    def reset(self):
+        """A new stream: frames count from 0 again."""
+        self.names.clear()
+
+    def poll(self, frame):
+        """Read the latest record, if new, as frame ``frame``'s posture."""
+        try:
+            record = self.reader.read()
+            if record is None:
+                return
+            words = record[1]
+            name = None
+            if words[posture_word_offsets()["reference_width"]]:     # a hand to describe
+                name = self.model.classify(record_features(decode_posture_words(words)))
+        except Exception:
+            self.errors += 1
+            return
+        self.last = self.names[frame] = name
+        for old in [f for f in self.names if f <= frame - self.keep]:
+            del self.names[old]
+
+    def held(self, first, last):
+        """``(name, share)`` over the frames ``first`` .. ``last`` (frames without
+        a record count as unknown)."""
+        return held_posture(self.names.get(f) for f in range(first, last + 1))
 
 
 def _numbers(value):
@@ -259,12 +375,13 @@ class PostureModel:
         meta = data.get("meta", {})
         if not isinstance(meta, dict):
             raise ValueError("meta must be a JSON object")
-        size = meta.get("picture_size")
-        if size is not None and not (isinstance(size, list) and len(size) == 2 and all(
-                isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 8192
-                for v in size)):
-            raise ValueError("meta picture_size must be [height, width], each an integer in "
-                             "[8, 8192], got {!r}".format(size))
+        sizes = meta.get("picture_sizes")
+        if sizes is not None and not (isinstance(sizes, list) and sizes and all(
+                isinstance(size, list) and len(size) == 2 and all(
+                    isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 8192
+                    for v in size) for size in sizes)):
+            raise ValueError("meta picture_sizes must be a list of [height, width], each an "
+                             "integer in [8, 8192], got {!r}".format(sizes))
         return cls(names, mean, scale, gamma, sv, n_support, dual, intercept, min_votes, meta)
 
 

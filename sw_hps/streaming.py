@@ -100,12 +100,17 @@ class SpottedGesture:
     telegram: bytes | None
     sent: bool
     delivery: str | None = None
+    #: the posture held over most of its frames and their share in it (None
+    #: without a posture model)
+    posture: str | None = None
+    posture_share: float | None = None
 
     def to_dict(self) -> dict:
         return {"name": self.class_name, "first": self.first, "last": self.last,
                 "named_at": self.named_at, "score": round(self.score, 3),
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
-                "sent": self.sent, "delivery": self.delivery}
+                "sent": self.sent, "delivery": self.delivery, "posture": self.posture,
+                "posture_share": self.posture_share}
 
 
 class StreamSpotter:
@@ -178,6 +183,9 @@ class StreamingApp:
         repeated errors.
     max_fault_interval : float in (0, 60]
         Longest sleep between two probes of the registers during a bus fault.
+    posture : sw_hps.posture.PostureTracker, optional
+        Each frame's posture from the posture slave; each gesture then names
+        the posture held over most of it.
 
     Attributes
     ----------
@@ -189,8 +197,9 @@ class StreamingApp:
                  poll_interval: float = DEFAULT_POLL_INTERVAL, frame_width: int = FRAME_WIDTH,
                  on_result: Callable[[SpottedGesture], None] | None = None,
                  clock: Callable[[], float] = time.monotonic,
-                 max_fault_interval: float = MAX_FAULT_INTERVAL):
+                 max_fault_interval: float = MAX_FAULT_INTERVAL, posture=None):
         self.spotter = StreamSpotter(models, frame_width)
+        self.posture = posture
         if not (isinstance(poll_interval, (int, float)) and 0 < poll_interval <= 1):
             raise ValueError(f"poll_interval must be in (0, 1] seconds, got {poll_interval!r}")
         self.models, self.fifo, self.link = models, fifo, link
@@ -306,6 +315,8 @@ class StreamingApp:
         """Streaming mode from an empty FIFO; the recogniser starts afresh."""
         self.fifo.clear(keep_running=True, streaming=True)
         self.spotter.reset()
+        if self.posture is not None:
+            self.posture.reset()
         self._started = True
         self._just_started = True
         # After a bus fault the watch's line says it (a flapping bus must not flood).
@@ -352,10 +363,14 @@ class StreamingApp:
         if not available:
             self._nap(self.poll_interval)
             return
+        named = []
         for _ in range(available):
             x, y, _flag, present = self.fifo.pop_record()
-            for detection in self.spotter.take(x, y, present):
-                self._send(detection)
+            named += self.spotter.take(x, y, present)
+        if self.posture is not None:      # the latest record: the last frame popped
+            self.posture.poll(self.spotter.frames - 1)
+        for detection in named:
+            self._send(detection)
 
     def _send(self, detection: Detection) -> None:
         name = detection.name
@@ -367,8 +382,11 @@ class StreamingApp:
                 log.warning("telegram %s for %r %s", hex_bytes(data), name, outcome.describe())
         else:
             log.warning("class %r is not one of the robot's gestures; nothing sent", name)
+        posture, share = self.posture.held(detection.first, detection.last) \
+            if self.posture is not None else (None, None)
         result = SpottedGesture(detection.class_index, name, detection.first, detection.last,
-                                detection.named_at, detection.score, data, sent, delivery)
+                                detection.named_at, detection.score, data, sent, delivery,
+                                posture, share)
         self.results.append(result)
         log.info("spotted %s (frames %d-%d, named at %d, score %.2f)%s", name,
                  result.first, result.last, result.named_at, result.score,

@@ -100,7 +100,7 @@ def _posture_inputs(root):
     data = rp.load_postures(root / "postures.npz")
     model = rp.train_posture(rp.still_features(rp.picture_masks(data)), data.label,
                              data.class_names, c=10.0)
-    model.meta = {"picture_size": [100, 100]}
+    model.meta = {"picture_sizes": [[100, 100]]}
     (root / "posture.json").write_text(json.dumps(model.to_dict()))
     bad = model.to_dict()
     bad["version"] = 9
@@ -340,6 +340,16 @@ CASES = [
          match="postures_no_skin.npz: image 5 has no skin-coloured pixel"),
     case("train-posture", f"{IN}/postures_no_subject.npz", "-o", f"{OUT}/p.json", "--groups",
          "subject", match="--groups subject needs a subject array"),
+    # ------------------------------------------------------------ postures
+    case("postures", "-o", f"{OUT}/r.npz", "--people", "0", match="--people must be"),
+    case("postures", "-o", f"{OUT}/r.npz", "--seed", "-1", match="--seed must be"),
+    case("postures", "-o", f"{OUT}/r.npz", "--postures", "fist,wave",
+         match="--postures: posture must be one of"),
+    case("postures", "-o", f"{OUT}/r.npz", "--postures", "fist,fist",
+         match="--postures: each posture once"),
+    case("postures", "-o", f"{OUT}/r.npz", "--width", "97", match="width must be even"),
+    case("postures", "-o", f"{IN}/adir", match="--output"),
+    case("postures", match="-o/--output"),
     # ------------------------------------------------------------ classify-posture
     case("classify-posture", f"{IN}/nope.json", f"{IN}/postures.npz", match="nope.json"),
     case("classify-posture", f"{IN}/text.json", f"{IN}/postures.npz",
@@ -590,6 +600,12 @@ BOARD_CASES = [
     (["--model", "{model}", "--bus", "sim", "--robot", "wifi"], "--robot"),
     (["--model", "{model}", "--bus", "sim"], "--robot"),
     (["--bus", "sim", "--robot", "none"], "--model"),
+    (["--model", "{model}", "--bus", "sim", "--robot", "none", "--posture-model", "{text}"],
+     "argument --posture-model: goes with --spotting continuous"),
+    (["--model", "{continuous}", "--bus", "sim", "--robot", "none", "--spotting",
+      "continuous", "--posture-model", "{text}"], "text.json"),
+    (["--model", "{continuous}", "--bus", "sim", "--robot", "none", "--spotting",
+      "continuous", "--posture-model", "{model}"], "gestures7.json"),
 ]
 
 
@@ -598,6 +614,7 @@ BOARD_CASES = [
 def test_board_application_bad_input(inputs, tmp_path, capsys, argv, match):
     from sw_hps.__main__ import main
     names = {"model": str(MODEL), "tmp": str(tmp_path), "text": str(inputs / "text.json"),
+             "continuous": str(MODEL.parent / "continuous7.json"),
              "short": str(inputs / "short_names.json"), "nine": str(inputs / "nine_symbols.json")}
     status = main([a.format(**names) for a in argv])
     err = capsys.readouterr().err

@@ -9,7 +9,9 @@ import json
 import numpy as np
 import pytest
 
-from sw_hps.posture import PostureModel, posture_features, read_posture_model
+from soc.hps_interface import POSTURE_WORD_COUNT
+from sw_hps.posture import (POSTURE_OFFSET, PostureModel, PostureReader, posture_features,
+                            read_posture_model)
 
 
 def test_features_of_the_registers():
@@ -46,8 +48,8 @@ def _bad_model(tmp_path, change):
     (lambda d: d.update(mean=[10 ** 400, 0]), "mean must be numbers"),
     (lambda d: d.update(mean=["1", 0]), "mean must be numbers"),
     (lambda d: d.update(dual_coef="x"), "dual_coef must be numbers"),
-    (lambda d: d.update(meta={"picture_size": 16}), "meta picture_size must be"),
-    (lambda d: d.update(meta={"picture_size": [16]}), "meta picture_size must be"),
+    (lambda d: d.update(meta={"picture_sizes": 16}), "meta picture_sizes must be"),
+    (lambda d: d.update(meta={"picture_sizes": [[16]]}), "meta picture_sizes must be"),
 ])
 def test_model_file_checks(tmp_path, change, message):
     path = _bad_model(tmp_path, change)
@@ -61,3 +63,57 @@ def test_model_file_checks(tmp_path, change, message):
     with pytest.raises(ValueError, match=message) as info:
         read_posture_model(path)
     assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------- the posture slave
+
+
+def _bus_with_slave():
+    from sw_hps.bus import SimBus
+    from sw_hps.simulated import SimulatedPostureSlave
+    slave = SimulatedPostureSlave()
+    bus = SimBus()
+    bus.attach(POSTURE_OFFSET, slave)
+    return bus, slave
+
+
+def _record(seed):
+    rng = np.random.RandomState(seed)
+    return [int(v) for v in rng.randint(0, 2 ** 31, POSTURE_WORD_COUNT)]
+
+
+def test_reader_takes_each_record_once_and_checks_the_layout():
+    bus, slave = _bus_with_slave()
+    reader = PostureReader(bus)
+    assert reader.layout_ok() and reader.read() is None      # none yet
+    slave.push_record(_record(1))
+    seq, words = reader.read()
+    assert (seq, words) == (1, _record(1)) and reader.read() is None
+    slave.push_record(_record(2))
+    slave.push_record(_record(3))
+    assert reader.read() == (3, _record(3))
+    assert reader.records == 2 and reader.torn == 0
+
+
+def test_reader_reads_again_a_record_two_newer_ones_overwrote():
+    bus, slave = _bus_with_slave()
+    reads = {"n": 0}
+    real = slave.read32
+
+    def racing(offset):            # two records complete during the first read
+        reads["n"] += 1
+        if reads["n"] == 50:
+            slave.push_record(_record(8))
+            slave.push_record(_record(9))
+        return real(offset)
+    slave.read32 = racing
+    slave.push_record(_record(7))
+    reader = PostureReader(bus)
+    seq, words = reader.read()
+    assert (seq, words) == (3, _record(9)) and reader.torn == 1
+
+
+def test_layout_of_another_build_is_seen():
+    bus, slave = _bus_with_slave()
+    slave.read32 = lambda offset: 0
+    assert not PostureReader(bus).layout_ok()

@@ -245,3 +245,68 @@ def test_train_continuous_command(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err, err
         assert not (tmp_path / "x.json").exists()
+
+
+def test_each_gesture_names_the_posture_held_over_it(models, stream):
+    """With a posture tracker the loop reads the posture after each poll's
+    records, as the posture of the last frame popped, and each named gesture
+    carries the posture held over most of its frames."""
+    from sw_hps.posture import PostureTracker
+
+    class Reader:                   # the slave's latest record: one per frame
+        def __init__(self):
+            self.frame = -1
+
+        def read(self):
+            self.frame += 1
+            return None
+
+    fixed = _smoothed_fixed(stream.points)
+    polled = []
+
+    class Tracker(PostureTracker):
+        def poll(self, frame):
+            polled.append(frame)
+            self.names[frame] = "fist" if frame % 4 else None   # 3 frames in 4
+
+    tracker = Tracker(Reader(), model=None)
+    app = run_stream(simulate_stream(models, fixed[:, 0], fixed[:, 1], posture=tracker))
+    assert app.results and polled == sorted(set(polled))
+    for r in app.results:
+        frames = range(r.first, r.last + 1)
+        known = [f for f in frames if f in tracker.names]
+        assert len(known) >= len(frames) // 2     # polls reach most frames here
+        assert r.posture == "fist" and r.to_dict()["posture_share"] == r.posture_share
+        assert r.posture_share == round(sum(tracker.names.get(f) == "fist" for f in frames)
+                                        / len(frames), 3)
+
+
+def test_the_tracker_classifies_each_new_record_once():
+    from sw_hps.bus import SimBus
+    from sw_hps.posture import POSTURE_OFFSET, PostureReader, PostureTracker
+    from sw_hps.simulated import SimulatedPostureSlave
+    from soc.hps_interface import POSTURE_WORD_COUNT, posture_word_offsets
+
+    class Model:
+        calls = 0
+
+        def classify(self, features):
+            Model.calls += 1
+            return "fist" if features[0] > 0 else None
+    slave, bus = SimulatedPostureSlave(), SimBus()
+    bus.attach(POSTURE_OFFSET, slave)
+    tracker = PostureTracker(PostureReader(bus), Model(), keep=3)
+    at = posture_word_offsets()
+    hand = [0] * POSTURE_WORD_COUNT
+    hand[at["reference_width"]], hand[at["polar"]] = 10, 50
+    none = [0] * POSTURE_WORD_COUNT
+    for frame, record in enumerate([hand, hand, none, hand]):
+        slave.push_record(record)
+        tracker.poll(frame)
+        tracker.poll(frame)          # nothing new: no second decision
+    assert Model.calls == 3                      # the frame without a hand is not classified
+    assert tracker.names == {1: "fist", 2: None, 3: "fist"} and tracker.last == "fist"
+    assert tracker.held(1, 4) == ("fist", 0.5)
+    slave.read32 = lambda offset: 1 / 0          # a fault costs the frame, not the loop
+    tracker.poll(4)
+    assert tracker.errors == 1 and 4 not in tracker.names

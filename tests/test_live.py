@@ -292,3 +292,25 @@ def test_live_and_pipeline_continuous_spotting_agree(tmp_path, capsys):
     live = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert live["gestures"] == batch["gestures"]
     assert [g["name"] for g in batch["gestures"]] == ["right", "stop"], batch["gestures"]
+
+
+def test_session_shows_the_posture_of_each_frame_and_gesture(models, tmp_path):
+    """With a posture model the page's state has each frame's posture (the
+    batch model's records through the classifier) and each gesture's."""
+    from sim.clip import save_clip  # noqa: F401  (the clip stays in memory)
+    from stereogest.pipeline_outputs import frame_postures, load_posture_model
+    clip = render_clip("rotate-right", 1, 320, 240, n_pre_rest=2, n_motion=10, n_post_rest=20,
+                       posture="fist")
+    data, model = tmp_path / "postures.npz", tmp_path / "posture.json"
+    assert main(["postures", "-o", str(data), "--people", "2", "--seed", "1", "--postures",
+                 "fist,open", "--width", "320", "--height", "240", "--quiet"]) == 0
+    assert main(["train-posture", str(data), "-o", str(model), "--copies", "0"]) == 0
+    posture_model = load_posture_model(model)
+    params = PipelineParams.for_frame(320)
+    s = LiveSession(params, models, posture_model=posture_model)
+    states = []
+    run_source(s, zip(clip.left, clip.right), on_frame=lambda s: states.append(dict(s.state)))
+    trajectory, _ = run_clip(clip.left, clip.right, params)
+    assert [st["posture"] for st in states] == frame_postures(posture_model, trajectory)
+    assert sum(st["posture"] == "fist" for st in states) > len(states) // 2
+    assert s.gestures and all(g["posture"] == "fist" for g in s.gestures)

@@ -93,7 +93,7 @@ def test_train_and_classify_commands(tmp_path, small, capsys):
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["pictures"] == int(keep.sum()) and summary["c"] in rp.C_CHOICES
     model = read_posture_model(out)
-    assert model.meta["picture_size"] == [100, 100] and model.meta["copies"] == 1
+    assert model.meta["picture_sizes"] == [[100, 100]] and model.meta["copies"] == 1
     # the other students' pictures
     data = rp.load_postures(DATA)
     others = tmp_path / "others.npz"
@@ -109,3 +109,35 @@ def test_train_and_classify_commands(tmp_path, small, capsys):
     assert set(report["per_class"]) == set(rp.ASL_NAMES)
 
 
+
+
+def test_rendered_postures_through_the_pipeline_and_joined_training(tmp_path, small, capsys):
+    """`stereogest postures` writes pictures, the pipeline's masks, labels and
+    people; train-posture joins it with the photos by class name (fist is the
+    rendered file's own) and classify-posture takes either size."""
+    rendered = tmp_path / "rendered.npz"
+    assert main(["postures", "-o", str(rendered), "--people", "2", "--seed", "40",
+                 "--postures", "fist,open,asl1", "--width", "320", "--height", "240",
+                 "--quiet", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["pictures"] == 6 and report["postures"] == ["fist", "asl5", "asl1"]
+    data = rp.load_postures(rendered)
+    assert data.class_names == ["fist", "asl5", "asl1"]
+    assert data.subject.tolist() == [40, 40, 40, 41, 41, 41]
+    assert data.image.shape == (6, 96, 96, 3) and data.mask.shape == (6, 96, 96)
+    # the mask is the pipeline's (skin AND band), not the picture path's
+    assert np.array_equal(rp.picture_masks(data), data.mask) and data.mask.any(axis=(1, 2)).all()
+    areas = data.mask.sum(axis=(1, 2))
+    assert areas[1] > areas[0] and areas[4] > areas[3]     # the open hand outgrows the fist
+    path, _ = small
+    out = tmp_path / "joined.json"
+    assert main(["train-posture", str(path), str(rendered), "-o", str(out), "--groups",
+                 "subject", "--copies", "0"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    model = read_posture_model(out)
+    assert model.class_names == list(rp.ASL_NAMES) + ["fist"]
+    assert model.meta["picture_sizes"] == [[100, 100], [96, 96]]
+    assert summary["pictures"] == len(rp.load_postures(path)) + 6
+    assert main(["classify-posture", str(out), str(rendered), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["pictures"] == 6 and report["accuracy"] == 1.0    # its training pictures

@@ -42,9 +42,20 @@ def system_run():
     models = load_models(Path(sw_hps.__file__).parent / "models" / "thesis7.json")
     left, right = small_frames(12, W, H)
     trajectory, kept = run_clip(left, right, SMALL, keep=lambda n: n == 11)
-    left, right, played, extra = hold_still(left, right, trajectory, SMALL)
+    left, right, played, extra = hold_still(left, right, trajectory, SMALL, kept[11])
     result = run_end_to_end(left, right, models, played, kept[11], SMALL, stage="left")
     return result, played, extra, kept[11]
+
+
+def test_the_last_posture_record_through_the_soc_equals_the_golden_model(system_run):
+    """The posture slave's last record, read by the board's reader over the
+    bridge, is the model's record of the last frame played (the hold-still
+    repeats included), and Status.SEQ counts every frame."""
+    result, played, extra, _ = system_run
+    assert len(played.posture) == len(played.flag)
+    assert result.posture_expected[0] == len(played.flag)
+    assert result.posture == result.posture_expected and result.posture_matches_model
+    # (the hand has left these small frames by the last one; make demo shows one)
 
 
 def test_fifo_words_equal_the_golden_model(system_run):

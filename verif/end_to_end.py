@@ -46,6 +46,18 @@ class EndToEndResult:
     cycles: int = 0
     seconds: float = 0.0
     stats: dict = field(default_factory=dict)
+    #: the posture slave's last record as the application reads it, (seq, words)
+    posture: tuple | None = None
+    #: the model's record of the last frame and the frames played (its seq)
+    posture_expected: tuple | None = None
+
+    @property
+    def posture_matches_model(self) -> bool | None:
+        """The last frame's posture record through the SoC equals the model's
+        (None: the model has none)."""
+        if self.posture_expected is None:
+            return None
+        return self.posture == self.posture_expected
 
     @property
     def fifo_matches_model(self) -> bool:
@@ -115,11 +127,31 @@ def frames_to_still(trajectory: Trajectory, params: PipelineParams, limit: int =
     raise ValueError(f"the spotting flag is still set after {limit} still frames")
 
 
-def hold_still(left_frames, right_frames, trajectory: Trajectory, params: PipelineParams):
+def _still_postures(last: FrameStages, params: PipelineParams, extra: int) -> list:
+    """The posture records of ``extra`` repeats of the frame whose stages are
+    ``last``: its mask (windowed about its own centroid) described about the
+    previous repeat's reference."""
+    from sim.model.centroid import counted_pixels
+    from sim.model.posture import (posture_mask, posture_reference, posture_registers,
+                                   posture_words)
+    mask = posture_mask(last.hand)
+    if params.posture_gate:
+        mask = counted_pixels(mask, previous=last.centroid, track_gate=params.posture_gate)
+    records, registers = [], last.posture
+    for _ in range(extra):
+        reference = posture_reference(registers)
+        registers = posture_registers(mask, reference)
+        records.append(posture_words(registers, reference))
+    return records
+
+
+def hold_still(left_frames, right_frames, trajectory: Trajectory, params: PipelineParams,
+               last: FrameStages | None = None):
     """The clip with its last frame repeated :func:`frames_to_still` times, and
     the golden model's trajectory of it (repeated frames give the same
-    centroid, so only the tracking is recomputed). Returns (left, right,
-    trajectory, repeats)."""
+    centroid, so only the tracking is recomputed; the posture records, given
+    the last frame's stages ``last``, too). Returns (left, right, trajectory,
+    repeats)."""
     extra = frames_to_still(trajectory, params)
     if not extra:
         return left_frames, right_frames, trajectory, 0
@@ -128,7 +160,10 @@ def hold_still(left_frames, right_frames, trajectory: Trajectory, params: Pipeli
     longer = track(np.concatenate([trajectory.centroid,
                                    np.repeat(trajectory.centroid[-1:], extra, axis=0)]),
                    np.concatenate([trajectory.area, np.repeat(trajectory.area[-1:], extra)]),
-                   params)
+                   params,
+                   None if trajectory.posture is None or last is None or last.posture is None
+                   else np.concatenate([trajectory.posture,
+                                        _still_postures(last, params, extra)]))
     return left, right, longer, extra
 
 
@@ -231,6 +266,8 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                     and bool(idle))
 
         results = app.run(max_iterations=200 * frames + 10_000, until=finished)
+        from sw_hps.posture import PostureReader
+        posture = PostureReader(bus).read()       # the last frame's, as the board reads it
         if spotting == "continuous":            # the cameras stopped: name what is pending
             results = [_Spotted(r) for r in results + app.end_of_stream()]
             system.advance(0.002)               # the last telegram leaves the UART
@@ -253,7 +290,10 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         uart_bytes=decode_uart(edges, 115200),
         results=[r.to_dict() for r in results], popped=bus.popped, expected=expected,
         vga=vga, vga_expected=vga_expected, leds=int(stats.get("leds", 0)),
-        cycles=int(stats.get("cycles", 0)), seconds=seconds, stats=stats)
+        cycles=int(stats.get("cycles", 0)), seconds=seconds, stats=stats,
+        posture=None if posture is None else (posture[0], [int(w) for w in posture[1]]),
+        posture_expected=None if trajectory.posture is None else
+        (frames & 0xFFFF, [int(w) for w in trajectory.posture[-1]]))
 
 
 
@@ -271,7 +311,8 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
     trajectory, kept = run_clip(clip.left, clip.right, params, keep=chosen.__contains__,
                                 progress=model_progress, threads=threads,
                                 rectification=rectification)
-    left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params)
+    left, right, played, extra = hold_still(clip.left, clip.right, trajectory, params,
+                                            kept[clip.frames - 1])
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
                             stage=stage, progress=progress, exe=exe,
                             rectification=rectification, vga_scale=vga_scale,

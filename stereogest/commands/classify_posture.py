@@ -4,8 +4,8 @@ pictures; refused pictures count as errors), ``per_class`` (accuracy per true
 class), ``confusion`` (rows true class, columns decision in the model's class
 order, a last column for refused), ``refused``, ``class_names``, ``pictures``.
 
-The pictures go the camera's way (as train-posture) and must be of the size
-the model was trained on (its meta picture_size); their labels index the
+The pictures go the camera's way (as train-posture) and must be of a size
+the model was trained on (its meta picture_sizes); their labels index the
 data's class_names (or asl0..asl9), each of which the model must know."""
 from __future__ import annotations
 
@@ -36,11 +36,12 @@ def run(args) -> int:
         raise ValueError(f"{args.model}: features must be {FEATURES} (the descriptor's), "
                          f"got {model.features}")
     data = rp.load_postures(args.data)
-    size = model.meta.get("picture_size")
-    if size is not None and list(data.image.shape[1:3]) != list(size):
+    sizes = model.meta.get("picture_sizes")
+    if sizes is not None and list(data.image.shape[1:3]) not in [list(s) for s in sizes]:
+        trained = ", ".join(f"{s[0]} x {s[1]}" for s in sizes)
         raise ValueError(f"{args.data}: pictures are {data.image.shape[1]} x "
-                         f"{data.image.shape[2]}, the model was trained on "
-                         f"{size[0]} x {size[1]} (its meta picture_size)")
+                         f"{data.image.shape[2]}, the model was trained on {trained} "
+                         f"(its meta picture_sizes)")
     unknown = sorted(set(data.class_names) - set(model.class_names))
     if unknown:
         raise ValueError(f"{args.data}: class_names {', '.join(unknown)} are not postures of "

@@ -72,6 +72,9 @@ def add_arguments(p):
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file for the board application (default: the trained "
                         "model shipped in sw_hps/models/gestures7.json)")
+    p.add_argument("--posture-model", metavar="POSTURE.json", default=None,
+                   help="posture classifier naming each gesture's posture (default: the one "
+                        "shipped in sw_hps/models)")
     p.add_argument("--threads", type=int, default=None,
                    help="worker threads for the golden model's stereo cost stage "
                         "(default: CPUs, at most 4)")
@@ -158,6 +161,8 @@ def run(args) -> int:
         args.pause = check_range("--pause", args.pause, 0, MAX_SEGMENT_FRAMES)
     say = _say(args.quiet)
     models = load_board_models(args.model, args.spotting)
+    from stereogest.pipeline_outputs import load_posture_model
+    posture_model = load_posture_model(args.posture_model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
@@ -168,15 +173,17 @@ def run(args) -> int:
     params.validate(width, height)
     rectification = load_rectification(args, width, height)
     with OutputDir(args.output) as out:
-        return _demo(args, clip, params, models, say, out, rectification)
+        return _demo(args, clip, params, (models, posture_model), say, out, rectification)
 
 
 def _demo(args, clip, params, models, say, out, rectification=None) -> int:
+    models, posture_model = models
     from sim.clip import save_clip
     from sim.images import write_png
     from sim.model.pipeline import run_clip
     from sim.render import render_clip
-    from stereogest.pipeline_outputs import (STALE, board_results, gesture_entries,
+    from stereogest.pipeline_outputs import (STALE, add_postures, board_results,
+                                             frame_postures, gesture_entries,
                                              parse_frames, progress_printer,
                                              recognised_gestures, sequence_score,
                                              stream_results, write_outputs)
@@ -242,12 +249,13 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               "height": clip.height, "backend": args.backend,
               "flagged": int(trajectory.flag.sum()), "symbols": summary["symbols"]}
 
+    postures = frame_postures(posture_model, trajectory)
     continuous = args.spotting == "continuous"
     model_results = stream_results(models, trajectory, clip.width) if continuous \
         else board_results(models, trajectory)
     if args.backend == "model":
         entries = model_results
-        gestures = recognised_gestures(entries)
+        gestures = add_postures(recognised_gestures(entries), postures)
         recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
             else (None, None)
         print(f"board application (simulated FIFO): recognised {recognised or 'nothing'}"
@@ -262,9 +270,9 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
             entries = [dict(r, outcome="recognised") for r in result.results]
         else:
             entries = gesture_entries(result.results, trajectory.flag)
-        gestures = recognised_gestures(entries)
+        gestures = add_postures(recognised_gestures(entries), postures)
         # the application on the hardware names what it names on the model's records
-        agree = gestures == recognised_gestures(model_results)
+        agree = recognised_gestures(entries) == recognised_gestures(model_results)
         print("board application on the hardware: "
               + ("the same gestures and spans as on the golden model's records" if agree
                  else "DIFFERENT gestures from the golden model's records"))
@@ -280,6 +288,13 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
               f"resolution, {out / 'vga.png'}): "
               + ("equal to the golden model's picture" if mism == 0 else
                  f"{mism} pixels differ from the golden model's picture"))
+        from sw_hps.posture import BUS_ACCESSES_PER_RECORD
+        posture_ok = result.posture_matches_model
+        if posture_ok is not None:
+            print(f"posture record of the last frame (posture slave, "
+                  f"{BUS_ACCESSES_PER_RECORD} bus accesses): "
+                  + ("equal to the golden model's" if posture_ok else
+                     "DIFFERENT from the golden model's"))
         print(f"UART TX pin: {uart_hex or 'nothing'}"
               + (" (the application's telegrams)" if result.uart_matches_telegram
                  else " (DIFFERENT from the application's telegrams "
@@ -295,9 +310,10 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                       vga_scale=args.vga_scale,
                       hardware_seconds=round(result.seconds, 1), cycles=result.cycles,
                       held_frames=extra, recognised_all=result.recognised_all,
-                      uart=result.uart_bytes.hex(" "), gestures_match_model=agree)
+                      uart=result.uart_bytes.hex(" "), gestures_match_model=agree,
+                      posture_matches_model=posture_ok)
         if not (result.fifo_matches_model and mism == 0 and result.uart_matches_telegram
-                and agree):
+                and agree and posture_ok is not False):
             report.update(recognised=recognised, telegram=telegram, gestures=gestures)
             print(json.dumps(report))
             print("stereogest demo: error: the hardware and the golden model disagree "

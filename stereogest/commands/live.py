@@ -37,6 +37,9 @@ def add_arguments(p):
                    help="replay a clip or videos as fast as the model goes")
     p.add_argument("--frames", type=int, default=None,
                    help="stop after this many frame pairs and exit (1..1800)")
+    p.add_argument("--posture-model", metavar="POSTURE.json", default=None,
+                   help="posture classifier for the page's current posture (default: the one "
+                        "shipped in sw_hps/models)")
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file (default: the one shipped in sw_hps/models)")
     p.add_argument("--threads", type=int, default=1,
@@ -74,6 +77,8 @@ def run(args) -> int:
     check_int("--port", args.port, 0, 65535)
     check_int("--threads", args.threads, 1, 64)
     models = load_board_models(args.model, args.spotting)
+    from stereogest.pipeline_outputs import load_posture_model
+    posture_model = load_posture_model(args.posture_model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
@@ -92,7 +97,7 @@ def run(args) -> int:
     try:
         params.validate(width, height)
         session = LiveSession(params, models, threads=args.threads, spotting=args.spotting,
-                              width=width)
+                              width=width, posture_model=posture_model)
         server = LiveServer(session, width, height, args.port)
     except BaseException:
         if closer is not None:

@@ -9,15 +9,18 @@ spotting threshold Tm is scaled to the frame width and the hold set as in
 are rectified first (hdl/rectify.py and its model). --spotting continuous names
 the gestures as 'python -m sw_hps --spotting continuous' does on the FIFO's
 streaming mode (one after another, no rest needed; the model shipped for it,
-sw_hps/models/continuous7.json, unless --model); --json lists every gesture."""
+sw_hps/models/continuous7.json, unless --model); --json lists every gesture,
+with the posture held over most of it (the shipped posture classifier, unless
+--posture-model)."""
 from __future__ import annotations
 
 import json
 import sys
 import time
 
-from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, board_results,
-                                         load_board_models, parse_frames, progress_printer,
+from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, add_postures, board_results,
+                                         frame_postures, load_board_models,
+                                         load_posture_model, parse_frames, progress_printer,
                                          recognised_gestures, sequence_score, stream_results,
                                          warn_if_empty,
                                          write_outputs)
@@ -48,6 +51,9 @@ def add_arguments(p):
     p.add_argument("--model", metavar="MODEL.json", default=None,
                    help="HMM model file of the board application that names the gesture "
                         "(default: the trained model shipped in sw_hps/models)")
+    p.add_argument("--posture-model", metavar="POSTURE.json", default=None,
+                   help="posture classifier that names each gesture's posture from the "
+                        "frames' posture records (default: the one shipped in sw_hps/models)")
     p.add_argument("--spotting", choices=SPOTTING_MODES, default="thesis",
                    help="thesis: the FPGA's spotting flag marks each gesture (default); "
                         "continuous: the board's continuous spotting on every frame")
@@ -69,6 +75,7 @@ def run(args) -> int:
     frames = clip.left.shape[0]
     chosen = set(parse_frames(args.frames, frames, clip.motion_frames))
     models = load_board_models(args.model, args.spotting)
+    models = (models, load_posture_model(args.posture_model))
     overrides = {k: v for k, v in (("spot_threshold", args.spot_threshold),
                                    ("spot_hold", args.spot_hold)) if v is not None}
     params = PipelineParams.for_frame(clip.width, hand_tracking=args.hand_tracking,
@@ -83,6 +90,7 @@ def run(args) -> int:
 
 def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
     from sim.model.pipeline import run_clip
+    models, posture_model = models
     if not args.quiet:
         print(f"  spotting: Tm = {params.spot_threshold} px (thesis 30 at 640 wide, scaled to "
               f"{clip.width}), end after {params.spot_hold} still frames", file=sys.stderr,
@@ -107,7 +115,7 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
     results = stream_results(models, trajectory, clip.width) \
         if args.spotting == "continuous" else board_results(models, trajectory)
-    gestures = recognised_gestures(results)
+    gestures = add_postures(recognised_gestures(results), frame_postures(posture_model, trajectory))
     truth = sequence_score(results, clip.sequence) if clip.sequence is not None else None
     recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
         else (None, None)

@@ -22,9 +22,11 @@ _COPIES_RANGE = (0, 32)
 
 
 def add_arguments(p):
-    p.add_argument("data", metavar="DATA.npz",
+    p.add_argument("data", metavar="DATA.npz", nargs="+",
                    help="pictures: image (N x H x W x 3 uint8 RGB), label (ints; class_names "
-                        "if given, else asl0..asl9), optional subject")
+                        "if given, else asl0..asl9), optional subject and mask (the camera's "
+                        "segmented mask, 'stereogest postures'); several files are joined "
+                        "by class name, each file's subjects apart")
     p.add_argument("-o", "--output", metavar="POSTURE.json", required=True,
                    help="model file to write")
     p.add_argument("--groups", choices=("subject",), default=None,
@@ -48,27 +50,47 @@ def run(args) -> int:
         raise ValueError(f"--copies must be an integer in {lo}..{hi}, got {args.copies}")
     check_int("--seed", args.seed, 0, 2 ** 63 - 1)
     check_output_file(args.output)
-    data = rp.load_postures(args.data)
-    if args.groups == "subject" and data.subject is None:
-        raise ValueError(f"{args.data}: --groups subject needs a subject array")
-    masks = rp.picture_masks(data, args.data)
-    features = rp.still_features(masks)
-    augmented = rp.augment_masks(masks, args.copies, seed=args.seed)
-    aug_features = rp.still_features(augmented)
-    aug_labels = np.tile(data.label, args.copies)
-    aug_of = np.tile(np.arange(len(data)), args.copies)
-    groups = data.subject if args.groups == "subject" else np.arange(len(data))
-    c = rp.choose_c(features, data.label, groups, data.class_names, augmented=aug_features,
+    sets = [rp.load_postures(path) for path in args.data]
+    if args.groups == "subject":
+        for path, data in zip(args.data, sets):
+            if data.subject is None:
+                raise ValueError(f"{path}: --groups subject needs a subject array")
+    names = []          # joined by name, in the order the files give them
+    for data in sets:
+        names += [n for n in data.class_names if n not in names]
+    features, labels, groups, aug_features, aug_labels, aug_of = [], [], [], [], [], []
+    for k, (path, data) in enumerate(zip(args.data, sets)):
+        masks = rp.picture_masks(data, path)
+        label = np.array([names.index(data.class_names[i]) for i in data.label], np.int64)
+        offset = sum(len(f) for f in features)
+        features.append(rp.still_features(masks))
+        labels.append(label)
+        # each file's subjects (or pictures) are groups of their own
+        own = data.subject if args.groups == "subject" else np.arange(len(data))
+        groups.append([f"{k}:{g}" for g in own])
+        augmented = rp.augment_masks(masks, args.copies, seed=args.seed + k)
+        aug_features.append(rp.still_features(augmented))
+        aug_labels.append(np.tile(label, args.copies))
+        aug_of.append(offset + np.tile(np.arange(len(data)), args.copies))
+    features, labels = np.vstack(features), np.concatenate(labels)
+    groups = np.unique(np.concatenate(groups), return_inverse=True)[1]
+    aug_features = np.vstack(aug_features).reshape(-1, features.shape[1])
+    aug_labels, aug_of = np.concatenate(aug_labels), np.concatenate(aug_of)
+    c = rp.choose_c(features, labels, groups, names, augmented=aug_features,
                     augmented_labels=aug_labels, augmented_of=aug_of)
-    model = rp.train_posture(features, data.label, data.class_names, c=c,
+    model = rp.train_posture(features, labels, names, c=c,
                              augmented=aug_features, augmented_labels=aug_labels)
-    model.meta = {"data": str(args.data), "pictures": len(data),
-                  "picture_size": list(data.image.shape[1:3]), "copies": args.copies,
-                  "seed": args.seed, "c": c, "groups": args.groups}
+    sizes = []
+    for data in sets:
+        if list(data.image.shape[1:3]) not in sizes:
+            sizes.append(list(data.image.shape[1:3]))
+    model.meta = {"data": [str(path) for path in args.data],
+                  "pictures": [len(data) for data in sets], "picture_sizes": sizes,
+                  "copies": args.copies, "seed": args.seed, "c": c, "groups": args.groups}
     write_text_atomic(args.output, json.dumps(model.to_dict()) + "\n")
     print(f"stereogest train-posture: {args.output}: {len(model.class_names)} postures, "
           f"{len(model.support_vectors)} support vectors, C {c:g}", file=sys.stderr)
     print(json.dumps({"model": str(args.output), "class_names": model.class_names,
-                      "pictures": len(data), "copies": args.copies, "c": c,
+                      "pictures": int(len(labels)), "copies": args.copies, "c": c,
                       "support_vectors": len(model.support_vectors)}))
     return 0

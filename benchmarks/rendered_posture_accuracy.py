@@ -1,0 +1,149 @@
+"""The shipped posture classifier on rendered people it was not trained on,
+through the golden model of the whole pipeline.
+
+Each person (seeds ``--seed`` ... ``--seed + --people - 1``; the shipped model
+is trained on seeds 1000-1099 and 2000-2099, ``make model``) holds each
+posture (``sim.hand_postures``) still in front of the chest at 640x480; the
+frame goes through :func:`sim.model.pipeline.process_frame` twice, as a still
+picture is presented, and the second frame's posture record through the
+board's reader path (:func:`sw_hps.posture.decode_posture_words`,
+``record_features``) to the classifier. The easy scene with the thesis'
+pipeline, and the hard scene (every difficulty, each person's skin tone and
+hand size) with hand tracking (``--hand-tracking``: the posture's window).
+
+``--compare`` also trains, on the same training people, a model on the
+photos alone and on the photos with the rendered postures, and scores them on
+these people and (the joint one) on the photos of students it did not see
+(one split: every fifth student held out).
+
+Prints per scene the accuracy, per class, the extended-finger count and the
+refusals, and the CPU seconds; JSON last line.
+
+Run: ``python benchmarks/rendered_posture_accuracy.py [--people 20] [--compare]``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from sim.hand_postures import POSTURE_NAMES, extended_fingers  # noqa: E402
+from stereogest.pipeline_outputs import load_posture_model  # noqa: E402
+
+PHOTOS = ROOT / "data" / "hand_postures" / "sign_language_digits_dev.npz"
+
+
+def still_records(scene: str, seeds, width=640, height=480):
+    """(features, labels): each person's still of each posture through the
+    pipeline's golden model, its record decoded as the board decodes it."""
+    from sim.difficulties import preset
+    from sim.model.pipeline import PipelineParams, process_frame
+    from sim.model.posture import posture_reference
+    from sim.render import StereoScene
+    from sw_hps.posture import decode_posture_words, record_features
+    params = PipelineParams.for_frame(width, hand_tracking=scene == "hard")
+    features, labels = [], []
+    for seed in seeds:
+        for label, name in enumerate(POSTURE_NAMES):
+            person = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
+                                 n_motion=2, n_post_rest=0, difficulties=preset(scene, int(seed)))
+            left, right = person.stereo_frame(0)
+            first = process_frame(left, right, params)
+            still = process_frame(left, right, params, previous=first.centroid,
+                                  reference=posture_reference(first.posture))
+            features.append(record_features(decode_posture_words(still.posture_words())))
+            labels.append(label)
+    return np.array(features), np.array(labels)
+
+
+def score(model, features, labels) -> dict:
+    names = list(POSTURE_NAMES)
+    decided = model.decide(features)
+    named = [model.class_names[k] if k >= 0 else None for k in decided]
+    truth = [names[k] for k in labels]
+    right = np.array([a == b for a, b in zip(named, truth)])
+    fingers = np.array([b is not None and extended_fingers(a) == extended_fingers(b)
+                        for a, b in zip(truth, named)])
+    return {"accuracy": round(float(right.mean()), 4),
+            "fingers": round(float(fingers.mean()), 4),
+            "refused": int(sum(n is None for n in named)),
+            "per_class": {name: round(float(right[labels == k].mean()), 3)
+                          for k, name in enumerate(names) if (labels == k).any()},
+            "errors": sorted({f"{a}->{b}": int(sum(1 for t, n in zip(truth, named)
+                                                  if (t, n) == (a, b)))
+                              for a, b in zip(truth, named) if a != b}.items(),
+                             key=lambda kv: -kv[1])[:8]}
+
+
+def compare(people, report):
+    """Photos alone and photos with the rendered postures, on the same people."""
+    from recognition import posture as rp
+    from recognition.posture_renders import render_postures
+    names = list(POSTURE_NAMES)
+    train = [render_postures(names, range(1000, 1100), scene="easy"),
+             render_postures(names, range(2000, 2100), scene="hard")]
+    r_features = np.vstack([rp.still_features(t["mask"]) for t in train])
+    r_labels = np.concatenate([t["label"] for t in train])
+    photos = rp.load_postures(PHOTOS)
+    p_masks = rp.picture_masks(photos)
+    p_features = rp.still_features(p_masks)
+    held = np.isin(photos.subject, np.unique(photos.subject)[::5])
+    aug = rp.augment_masks(p_masks[~held], 8, seed=1)
+    aug_features = rp.still_features(aug)
+    aug_labels = np.tile(photos.label[~held], 8)
+    alone = rp.train_posture(p_features[~held], photos.label[~held], names[:10], c=10.0,
+                             augmented=aug_features, augmented_labels=aug_labels)
+    joint = rp.train_posture(np.vstack([p_features[~held], r_features]),
+                             np.concatenate([photos.label[~held], r_labels]), names, c=10.0,
+                             augmented=aug_features, augmented_labels=aug_labels)
+    out = {}
+    for name, model in (("photos", alone), ("photos_and_rendered", joint)):
+        out[name] = {scene: score(model, *people[scene])["accuracy"] for scene in people}
+        out[name]["held_out_students"] = round(float(np.mean(
+            model.decide(p_features[held]) == photos.label[held])), 4)
+        out[name]["support_vectors"] = int(len(model.support_vectors))
+    report["compare"] = out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--model", default=None, help="posture model (default: the shipped one)")
+    p.add_argument("--people", type=int, default=20)
+    p.add_argument("--seed", type=int, default=9000, help="the first test person's seed")
+    p.add_argument("--compare", action="store_true")
+    args = p.parse_args(argv)
+    start = time.process_time()
+    model = load_posture_model(args.model)
+    seeds = range(args.seed, args.seed + args.people)
+    report = {"model": args.model or "sw_hps/models/posture.json", "people": args.people,
+              "first_seed": args.seed, "postures": list(POSTURE_NAMES)}
+    people = {}
+    for scene in ("easy", "hard"):
+        people[scene] = still_records(scene, seeds)
+        result = score(model, *people[scene])
+        report[scene] = result
+        print(f"{scene} scene ({'hand tracking' if scene == 'hard' else 'thesis pipeline'}): "
+              f"{result['accuracy']:.2%} of {len(people[scene][1])} stills, finger count "
+              f"{result['fingers']:.2%}, {result['refused']} refused; errors "
+              f"{result['errors'] or 'none'}")
+    if args.compare:
+        compare(people, report)
+        for name, row in report["compare"].items():
+            print(f"trained on {name}: easy {row['easy']:.2%}, hard {row['hard']:.2%}, "
+                  f"held-out students {row['held_out_students']:.2%}, "
+                  f"{row['support_vectors']} support vectors")
+    report["cpu_seconds"] = round(time.process_time() - start, 1)
+    print(f"{report['cpu_seconds']} CPU s")
+    print(json.dumps(report))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,75 @@
+"""Rendered postures as a DATA.npz of pictures (:mod:`recognition.posture`):
+each person (seed) holds each posture still in front of the chest, and the
+frame goes through the golden model of the whole pipeline.
+
+Per picture the file keeps ``image``, the left camera's view about the hand
+as RGB, and ``mask``, the pipeline's posture mask there (skin AND the
+disparity band after the 3x3 opening, within the hand tracking's window in
+the hard scene), which the training and scoring use instead of the picture
+path (a photo has no disparity; a rendered frame has; the opening again
+changes nothing). ``subject`` is the
+person's seed, so that people are held out whole.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["render_postures", "CROP_SHARE"]
+
+#: The picture's side as a share of the frame's height (the rendered hand with
+#: its fingers spread and a roll fits in it).
+CROP_SHARE = 0.4
+
+
+def _rgb(y, cb, cr) -> np.ndarray:
+    """Full-range BT.601 YCbCr to RGB (uint8), for looking at the pictures."""
+    y, cb, cr = (np.asarray(v, float) for v in (y, cb, cr))
+    r = y + 1.402 * (cr - 128)
+    g = y - 0.344136 * (cb - 128) - 0.714136 * (cr - 128)
+    b = y + 1.772 * (cb - 128)
+    return np.clip(np.rint(np.stack([r, g, b], axis=-1)), 0, 255).astype(np.uint8)
+
+
+def render_postures(postures, seeds, *, width: int = 640, height: int = 480,
+                    scene: str = "easy", progress=None) -> dict:
+    """The arrays of a DATA.npz: ``image`` (N, S, S, 3) uint8, ``mask`` (N, S,
+    S) bool (the posture mask), ``label`` (indices of ``class_names`` = ``postures``),
+    ``subject`` (the seeds), one picture per (seed, posture), S =
+    :data:`CROP_SHARE` of ``height``.
+
+    The frame is the scene's first (the hand at rest), presented to the
+    pipeline's golden model (:func:`sim.model.pipeline.process_frame`, the
+    demo's parameters for the frame size, hand tracking in the hard scene)
+    twice, as a still picture is.
+    """
+    from sim.difficulties import preset
+    from sim.hand_postures import resolve_posture
+    from sim.model.pipeline import PipelineParams, process_frame
+    from sim.model.ycbcr import ycbcr422_to_444
+    from sim.render import StereoScene
+    names = [resolve_posture(p) for p in postures]
+    params = PipelineParams.for_frame(width, hand_tracking=scene == "hard")
+    side = int(round(CROP_SHARE * height)) // 2 * 2
+    images, masks, labels, subjects = [], [], [], []
+    for done, seed in enumerate(seeds):
+        for label, name in enumerate(names):
+            scene_ = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
+                                 n_motion=2, n_post_rest=0,
+                                 difficulties=preset(scene, int(seed)))
+            left, right = scene_.stereo_frame(0)
+            first = process_frame(left, right, params)
+            stages = process_frame(left, right, params, previous=first.centroid)
+            cx, cy = (int(v) for v in scene_.hand_anchor[0])
+            x0 = min(max(cx - side // 2, 0), width - side)
+            y0 = min(max(cy - side // 2 - side // 8, 0), height - side)   # fingers above
+            window = (slice(y0, y0 + side), slice(x0, x0 + side))
+            y, cb, cr = ycbcr422_to_444(left)
+            images.append(_rgb(y[window], cb[window], cr[window]))
+            masks.append(stages.posture_mask[window])
+            labels.append(label)
+            subjects.append(int(seed))
+        if progress is not None:
+            progress(done + 1, len(seeds))
+    return {"image": np.array(images, np.uint8), "mask": np.array(masks, bool),
+            "label": np.array(labels, np.int64), "class_names": np.array(names),
+            "subject": np.array(subjects, np.int64)}
