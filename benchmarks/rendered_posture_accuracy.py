@@ -4,9 +4,10 @@ through the golden model of the whole pipeline.
 Each person (seeds ``--seed`` ... ``--seed + --people - 1``; the shipped model
 is trained on seeds 1000-1099 and 2000-2099, ``make model``) holds each
 posture (``sim.hand_postures``) still in front of the chest at 640x480; the
-frame goes through :func:`sim.model.pipeline.process_frame` twice, as a still
-picture is presented, and the second frame's posture record through the
-board's reader path (:func:`sw_hps.posture.decode_posture_words`,
+frame goes through :func:`sim.model.pipeline.process_frame` three times, as a
+hand held still in a stream (the hand tracking's window then stands about the
+hand's own centroid, and the posture's reference comes from a windowed frame),
+and the last frame's posture record through the board's reader path (:func:`sw_hps.posture.decode_posture_words`,
 ``record_features``) to the classifier. The easy scene with the thesis'
 pipeline, and the hard scene (every difficulty, each person's skin tone and
 hand size) with hand tracking (``--hand-tracking``: the posture's window).
@@ -55,9 +56,11 @@ def still_records(scene: str, seeds, width=640, height=480):
             person = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
                                  n_motion=2, n_post_rest=0, difficulties=preset(scene, int(seed)))
             left, right = person.stereo_frame(0)
-            first = process_frame(left, right, params)
-            still = process_frame(left, right, params, previous=first.centroid,
-                                  reference=posture_reference(first.posture))
+            still = None
+            for _ in range(3):
+                still = process_frame(
+                    left, right, params, previous=None if still is None else still.centroid,
+                    reference=None if still is None else posture_reference(still.posture))
             features.append(record_features(decode_posture_words(still.posture_words())))
             labels.append(label)
     return np.array(features), np.array(labels)

@@ -171,6 +171,7 @@ def estimate(width: int = 640, height: int = 480, progress=None, rectification=N
         "frame_buffer": DomainRenamer({"vga": "sync"})(core.frame_buffer),
         "fifo_slave": core.fifo_slave,
         "uart_slave": core.uart_slave,
+        "posture_slave": core.posture_slave,
         "config_left": core.config[0],
         "config_right": core.config[1],
     }
@@ -185,6 +186,18 @@ def estimate(width: int = 640, height: int = 480, progress=None, rectification=N
         blocks.update({f"{name}.{path}": counts for path, counts in found.items()})
     keys = {"alms": "alm_estimate", "luts": "luts", "registers": "ffs", "m10k": "m10k",
             "mlab": "mlab"}
+    # what the posture path costs inside the pipeline: its two stages alone
+    posture_path = None
+    if params.posture:
+        posture_path = {key: 0 for key in keys}
+        for stage in ("posture_opening", "posture"):
+            if progress:
+                progress(f"synthesizing the pipeline's {stage} alone ...")
+            with tempfile.TemporaryDirectory(prefix="stereogest-resources-") as keep:
+                alone = synthesize(core.pipeline.stage(stage), stage, yosys, keep=Path(keep),
+                                   autoname=False)
+            for key, field in keys.items():
+                posture_path[key] += alone[field]
     ours = {key: sum(s[field] for s in synth.values()) for key, field in keys.items()}
     ours["memory_bits"] = sum(mem.values())
     worst = max(synth.values(), key=lambda s: s.get("depth_ns") or 0)
@@ -200,6 +213,7 @@ def estimate(width: int = 640, height: int = 480, progress=None, rectification=N
         "tool": worst["tool"] + " synth_intel_alm -family cyclonev, one run per part",
         "parts": {name: {key: s[field] for key, field in keys.items()}
                   for name, s in synth.items()},
+        "posture_path": posture_path,
         "estimate": ours,
         "thesis_table_23": THESIS_TABLE_23,
         "device": DEVICE,

@@ -147,7 +147,10 @@ class LiveSession:
         return self.posture_model.classify(record_features(decode_posture_words(words)))
 
     def _with_posture(self, entry: dict) -> dict:
+        """``entry`` with the posture held over it (as it is without a model)."""
         from stereogest.pipeline_outputs import add_postures
+        if self.posture_model is None:
+            return entry
         return add_postures([entry], self._postures, first_frame=self._first)[0]
 
     def _recognise(self, traj, n: int) -> None:

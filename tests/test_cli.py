@@ -416,7 +416,7 @@ def test_version_and_one_seed_default(capsys):
     seeds = {name: next(a.default for a in p._actions if a.dest == "seed")
              for name, p in sub.choices.items() if any(a.dest == "seed" for a in p._actions)}
     assert set(seeds) == {"render", "chessboards", "demo", "gestures", "train", "timing",
-                          "train-posture"}
+                          "train-posture", "postures"}
     # timing's --seed may be repeated (no default list to append to): none given is DEFAULT_SEED
     from stereogest.commands.timing import parse_seeds
     assert seeds.pop("timing") is None and parse_seeds(None, None) == [DEFAULT_SEED]
@@ -427,7 +427,8 @@ def test_every_output_option_is_dash_o(capsys):
     """-o/--output names the output of every command that writes one."""
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    writers = {"render", "clip", "stereo", "pipeline", "demo", "gestures", "train", "generate"}
+    writers = {"render", "clip", "stereo", "pipeline", "demo", "gestures", "train", "generate",
+               "postures", "train-posture"}
     for name in writers:
         options = {s for a in sub.choices[name]._actions for s in a.option_strings}
         assert {"-o", "--output"} <= options, name

@@ -281,7 +281,8 @@ def test_live_and_pipeline_continuous_spotting_agree(tmp_path, capsys):
         first, left=np.concatenate([first.left, second.left]),
         right=np.concatenate([first.right, second.right]),
         hand_xy=np.concatenate([first.hand_xy, second.hand_xy]),
-        hand_area=np.concatenate([first.hand_area, second.hand_area]))
+        hand_area=np.concatenate([first.hand_area, second.hand_area]),
+        postures=first.postures + second.postures)
     path = save_clip(both, tmp_path / "two")
     frames = len(both.left)
     assert main(["pipeline", str(path), "-o", str(tmp_path / "out"), "--spotting",

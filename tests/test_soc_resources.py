@@ -109,20 +109,21 @@ def test_estimate_sets_the_figures_beside_table_23_and_the_device(monkeypatch):
     monkeypatch.setattr(resources, "memory_bits", lambda text: {"a": 1000, "b": 24})
     monkeypatch.setattr("amaranth.back.rtlil.convert", _elaborated)
     report = resources.estimate(64, 48)
-    # one yosys run per part, summed
-    assert calls == ["pipeline", "frame_buffer", "fifo_slave", "uart_slave", "config_left",
-                     "config_right"]
-    assert report["estimate"]["alms"] == 12_000 and report["estimate"]["memory_bits"] == 1024
-    assert report["estimate"]["m10k"] == 6 * 50 + 21 and report["parts"]["pipeline"]["m10k"] == 51
-    assert report["device_use_percent"]["registers"] == round(100 * 48_000 / 128_280, 1)
-    assert report["logic_depth"]["lut_levels"] == 6      # the worst part
-    assert report["fits"] is True             # 12,000 ALMs, 48,000 registers, 321 M10K
+    # one yosys run per part, summed; the posture path's two stages alone beside them
+    assert calls == ["pipeline", "frame_buffer", "fifo_slave", "uart_slave", "posture_slave",
+                     "config_left", "config_right", "posture_opening", "posture"]
+    assert report["estimate"]["alms"] == 14_000 and report["estimate"]["memory_bits"] == 1024
+    assert report["estimate"]["m10k"] == 7 * 50 + 28 and report["parts"]["pipeline"]["m10k"] == 51
+    assert report["posture_path"]["alms"] == 4_000 and report["posture_path"]["m10k"] == 117
+    assert report["device_use_percent"]["registers"] == round(100 * 56_000 / 128_280, 1)
+    assert report["logic_depth"]["lut_levels"] == 7      # the worst part
+    assert report["fits"] is True             # 14,000 ALMs, 56,000 registers, 378 M10K
     assert report["thesis_table_23"] == {"alms": 21_941, "registers": 45_819,
                                          "memory_bits": 2_341_913}
     assert report["device"]["name"] == "5CSEMA5F31C6"
     # the blocks per memory add up to the parts' counts; the default core
     use = report["m10k_consumers"]
-    assert use["total"] == report["estimate"]["m10k"] and use["headroom"] == 397 - 321
+    assert use["total"] == report["estimate"]["m10k"] and use["headroom"] == 397 - 378
     assert use["consumers"]["frame buffer (VGA view)"] == 52
     assert use["consumers"]["pipeline"] == 51       # a memory of no known consumer
     assert report["vga_scale"] == 2 and report["rectification"] is False
