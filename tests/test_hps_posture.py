@@ -117,3 +117,12 @@ def test_layout_of_another_build_is_seen():
     bus, slave = _bus_with_slave()
     slave.read32 = lambda offset: 0
     assert not PostureReader(bus).layout_ok()
+
+
+def test_the_shipped_posture_model_loads_on_the_board():
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "sw_hps" / "models" / "posture.json"
+    model = read_posture_model(path)
+    assert model.class_names == ["asl{}".format(k) for k in range(10)] + ["fist"]
+    assert model.features == 176 and len(model.support_vectors) > 100
+    assert model.decide(np.zeros((2, 176))).shape == (2,)
