@@ -44,17 +44,14 @@ PHOTOS = ROOT / "data" / "hand_postures" / "sign_language_digits_dev.npz"
 def still_records(scene: str, seeds, width=640, height=480):
     """(features, labels): each person's still of each posture through the
     pipeline's golden model, its record decoded as the board decodes it."""
-    from sim.difficulties import preset
-    from sim.model.pipeline import PipelineParams, process_frame
+    from recognition.posture_renders import posture_still
+    from sim.model.pipeline import process_frame
     from sim.model.posture import posture_reference
-    from sim.render import StereoScene
     from sw_hps.posture import decode_posture_words, record_features
-    params = PipelineParams.for_frame(width, hand_tracking=scene == "hard")
     features, labels = [], []
     for seed in seeds:
         for label, name in enumerate(POSTURE_NAMES):
-            person = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
-                                 n_motion=2, n_post_rest=0, difficulties=preset(scene, int(seed)))
+            person, params = posture_still(name, seed, width=width, height=height, scene=scene)
             left, right = person.stereo_frame(0)
             still = None
             for _ in range(3):

@@ -14,20 +14,25 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["render_postures", "CROP_SHARE"]
+__all__ = ["render_postures", "posture_still", "CROP_SHARE"]
 
 #: The picture's side as a share of the frame's height (the rendered hand with
 #: its fingers spread and a roll fits in it).
 CROP_SHARE = 0.4
 
 
-def _rgb(y, cb, cr) -> np.ndarray:
-    """Full-range BT.601 YCbCr to RGB (uint8), for looking at the pictures."""
-    y, cb, cr = (np.asarray(v, float) for v in (y, cb, cr))
-    r = y + 1.402 * (cr - 128)
-    g = y - 0.344136 * (cb - 128) - 0.714136 * (cr - 128)
-    b = y + 1.772 * (cb - 128)
-    return np.clip(np.rint(np.stack([r, g, b], axis=-1)), 0, 255).astype(np.uint8)
+def posture_still(name: str, seed: int, *, width: int = 640, height: int = 480,
+                  scene: str = "easy"):
+    """The person of ``seed`` holding posture ``name`` still in front of the
+    chest in ``scene`` (:data:`sim.difficulties.SCENES`): the scene and the
+    pipeline parameters its frames go through (the demo's for the frame size,
+    hand tracking in the hard scene)."""
+    from sim.difficulties import preset
+    from sim.model.pipeline import PipelineParams
+    from sim.render import StereoScene
+    person = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
+                         n_motion=2, n_post_rest=0, difficulties=preset(scene, int(seed)))
+    return person, PipelineParams.for_frame(width, hand_tracking=scene == "hard")
 
 
 def render_postures(postures, seeds, *, width: int = 640, height: int = 480,
@@ -42,29 +47,24 @@ def render_postures(postures, seeds, *, width: int = 640, height: int = 480,
     demo's parameters for the frame size, hand tracking in the hard scene)
     twice, as a still picture is.
     """
-    from sim.difficulties import preset
+    from sim.footage import frame_to_bgr
     from sim.hand_postures import resolve_posture
-    from sim.model.pipeline import PipelineParams, process_frame
-    from sim.model.ycbcr import ycbcr422_to_444
-    from sim.render import StereoScene
+    from sim.model.pipeline import process_frame
     names = [resolve_posture(p) for p in postures]
-    params = PipelineParams.for_frame(width, hand_tracking=scene == "hard")
     side = int(round(CROP_SHARE * height)) // 2 * 2
     images, masks, labels, subjects = [], [], [], []
     for done, seed in enumerate(seeds):
         for label, name in enumerate(names):
-            scene_ = StereoScene("stop", int(seed), width, height, posture=name, n_pre_rest=2,
-                                 n_motion=2, n_post_rest=0,
-                                 difficulties=preset(scene, int(seed)))
-            left, right = scene_.stereo_frame(0)
+            person, params = posture_still(name, seed, width=width, height=height,
+                                           scene=scene)
+            left, right = person.stereo_frame(0)
             first = process_frame(left, right, params)
             stages = process_frame(left, right, params, previous=first.centroid)
-            cx, cy = (int(v) for v in scene_.hand_anchor[0])
+            cx, cy = (int(v) for v in person.hand_anchor[0])
             x0 = min(max(cx - side // 2, 0), width - side)
             y0 = min(max(cy - side // 2 - side // 8, 0), height - side)   # fingers above
             window = (slice(y0, y0 + side), slice(x0, x0 + side))
-            y, cb, cr = ycbcr422_to_444(left)
-            images.append(_rgb(y[window], cb[window], cr[window]))
+            images.append(frame_to_bgr(left)[window][..., ::-1])
             masks.append(stages.posture_mask[window])
             labels.append(label)
             subjects.append(int(seed))

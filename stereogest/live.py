@@ -137,14 +137,13 @@ class LiveSession:
         """The frame's posture by the posture model (None: no model, no
         record, no hand, or refused); keeps the reference for the next frame."""
         from sim.model.posture import posture_reference
-        from sw_hps.posture import decode_posture_words, record_features
+        from sw_hps.posture import record_posture
         if stages.posture is None:
             return None
         self._reference = posture_reference(stages.posture)
-        words = stages.posture_words()
-        if self.posture_model is None or not words[1]:
+        if self.posture_model is None:
             return None
-        return self.posture_model.classify(record_features(decode_posture_words(words)))
+        return record_posture(self.posture_model, stages.posture_words())
 
     def _with_posture(self, entry: dict) -> dict:
         """``entry`` with the posture held over it (as it is without a model)."""

@@ -128,15 +128,12 @@ def load_posture_model(path=None):
 
 
 def frame_postures(model, trajectory) -> list:
-    """Each frame's posture name (None: refused, or no posture record) by
-    ``model`` from the trajectory's posture records."""
-    from sw_hps.posture import decode_posture_words, record_features
+    """Each frame's posture name (None: refused, no hand, or no posture record)
+    by ``model`` from the trajectory's posture records."""
+    from sw_hps.posture import record_posture
     if model is None or trajectory.posture is None or not len(trajectory.posture):
         return [None] * len(trajectory.flag)
-    features = np.array([record_features(decode_posture_words(words))
-                         for words in trajectory.posture])
-    return [None if k < 0 or not record[1] else model.class_names[k]
-            for k, record in zip(model.decide(features), trajectory.posture)]
+    return [record_posture(model, words) for words in trajectory.posture]
 
 
 def add_postures(entries: list[dict], postures: list, first_frame: int = 0) -> list[dict]:

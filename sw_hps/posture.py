@@ -27,7 +27,8 @@ from soc.hps_interface import (FIFO_BASE, POSTURE_BASE, POSTURE_DATA, POSTURE_IN
 
 __all__ = ["POSTURE_FORMAT", "POSTURE_VERSION", "PostureModel", "posture_features",
            "read_posture_model", "decode_posture_words", "record_features", "PostureReader",
-           "POSTURE_OFFSET", "BUS_ACCESSES_PER_RECORD", "held_posture", "PostureTracker"]
+           "POSTURE_OFFSET", "BUS_ACCESSES_PER_RECORD", "held_posture", "PostureTracker",
+           "record_posture"]
 
 #: The posture slave's offset from the FIFO slave's (the application's window base).
 POSTURE_OFFSET = POSTURE_BASE - FIFO_BASE
@@ -142,6 +143,14 @@ class PostureReader:
         return None
 
 
+def record_posture(model, words):
+    """The posture ``model`` names for one record (its words), or None: no
+    hand in the record's reference (nothing to describe), or refused."""
+    if not words[posture_word_offsets()["reference_width"]]:
+        return None
+    return model.classify(record_features(decode_posture_words(words)))
+
+
 def held_posture(names):
     """The posture held over most of a gesture's frames (``names``: each
     frame's posture, None where refused or unknown) and the share of the
@@ -186,10 +195,7 @@ class PostureTracker:
             record = self.reader.read()
             if record is None:
                 return
-            words = record[1]
-            name = None
-            if words[posture_word_offsets()["reference_width"]]:     # a hand to describe
-                name = self.model.classify(record_features(decode_posture_words(words)))
+            name = record_posture(self.model, record[1])
         except Exception:
             self.errors += 1
             return
