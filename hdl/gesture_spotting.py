@@ -55,10 +55,10 @@ class GestureSpotting(wiring.Component):
     Attributes
     ----------
     cycles : int
-        3: ring-buffer read, absolute differences, threshold and state machine.
+        4: ring-buffer read, absolute differences, threshold, state machine.
     """
 
-    cycles = 3
+    cycles = 4
 
     def __init__(self, point_bits: int = 18, window: int = 8, threshold: int = 30,
                  hold: int = 16, frac_bits: int = 8):
@@ -119,15 +119,20 @@ class GestureSpotting(wiring.Component):
             a, b = s1_point[i * pb:(i + 1) * pb], oldest[i * pb:(i + 1) * pb]
             m.d.sync += reg.eq(Mux(a >= b, a - b, b - a))
 
-        # Stage 3: max(|dx|, |dy|) > Tm << frac_bits, i.e. either exceeds it;
-        # the REST/GESTURE state machine (Fig. 79) with its still-frame counter.
-        moving = (s2_abs[0] > self.limit) | (s2_abs[1] > self.limit)
+        # Stage 3: max(|dx|, |dy|) > Tm << frac_bits, i.e. either exceeds it. Its
+        # own register: from |dy| to the state was a routed limit.
+        s3_valid, s3_update, s3_moving = Signal(), Signal(), Signal()
+        s3_point = Signal(2 * pb)
+        m.d.sync += [s3_valid.eq(s2_valid), s3_update.eq(s2_update), s3_point.eq(s2_point),
+                     s3_moving.eq((s2_abs[0] > self.limit) | (s2_abs[1] > self.limit))]
+
+        # Stage 4: the REST/GESTURE state machine (Fig. 79) with its still-frame counter.
         gesture = Signal()
         still = Signal(range(self.hold))
         next_gesture = Signal()
         m.d.comb += next_gesture.eq(gesture)
-        with m.If(s2_update):
-            with m.If(moving):
+        with m.If(s3_update):
+            with m.If(s3_moving):
                 m.d.comb += next_gesture.eq(1)
                 m.d.sync += still.eq(0)
             with m.Elif(gesture):
@@ -139,8 +144,8 @@ class GestureSpotting(wiring.Component):
         m.d.sync += gesture.eq(next_gesture)
         out = self.o_stream.payload
         m.d.sync += [
-            self.o_stream.valid.eq(s2_valid),
-            out.x.eq(s2_point[:pb]), out.y.eq(s2_point[pb:]),
-            out.flag.eq(next_gesture & s2_update),
+            self.o_stream.valid.eq(s3_valid),
+            out.x.eq(s3_point[:pb]), out.y.eq(s3_point[pb:]),
+            out.flag.eq(next_gesture & s3_update),
         ]
         return m
