@@ -181,9 +181,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--sim-trajectory",
                         help="with --bus sim: trajectory.csv to play (frame,x,y,flag)")
     parser.add_argument("--posture-model",
-                        help="with --spotting continuous: posture classifier (JSON, "
-                        "'stereogest train-posture') naming each gesture's posture from the "
-                        "posture slave's records (default: none)")
+                        help="posture classifier (JSON, 'stereogest train-posture') naming "
+                        "each gesture's posture from the posture slave's records, in both "
+                        "spotting modes (default: none)")
     parser.add_argument("--spotting", default="thesis", choices=("thesis", "continuous"),
                         help="thesis: the FPGA's flag marks each gesture (default); "
                         "continuous: every frame streamed, gestures found one after another "
@@ -296,21 +296,26 @@ def _run_streaming(args, models, bus, link, started) -> int:
         return 0
     if args.bus == "sim":
         bus.attach(0, SimulatedFifoPeripheral(reads_per_frame=1))
-    posture = None
-    if posture_model is not None:
-        from .posture import POSTURE_OFFSET, PostureReader, PostureTracker
-        if args.bus == "sim":
-            from .simulated import SimulatedPostureSlave
-            bus.attach(POSTURE_OFFSET, SimulatedPostureSlave())
-        posture = PostureTracker(PostureReader(bus), posture_model)
     app = StreamingApp(models, FifoPeripheral(bus), link, poll_interval=args.poll_ms / 1000.0,
-                       posture=posture)
+                       posture=_posture_tracker(args, bus, posture_model))
     started(app)
     log.info("running (continuous spotting): bus %s, robot %s, %d classes %s", args.bus,
              args.robot, len(models.class_names), list(models.class_names))
     app.run()
     app.shutdown()
     return 0
+
+
+def _posture_tracker(args, bus, posture_model):
+    """The posture slave's tracker for ``posture_model`` (None without one); a
+    simulated slave on ``--bus sim``."""
+    if posture_model is None:
+        return None
+    from .posture import POSTURE_OFFSET, PostureReader, PostureTracker
+    if args.bus == "sim":
+        from .simulated import SimulatedPostureSlave
+        bus.attach(POSTURE_OFFSET, SimulatedPostureSlave())
+    return PostureTracker(PostureReader(bus), posture_model)
 
 
 def _load_models(args):
@@ -325,8 +330,6 @@ def _load_models(args):
             raise UsageError(f"argument --spotting: {exc}") from None
     posture = None
     if args.posture_model is not None:
-        if args.spotting != "continuous":
-            raise UsageError("argument --posture-model: goes with --spotting continuous")
         from .posture import read_posture_model
         posture = read_posture_model(args.posture_model)
     return models, posture
@@ -442,7 +445,7 @@ def _serve(args, models, trajectory, bus) -> int:
         if args.spotting == "continuous":
             return _run_streaming(args, models, bus, link,
                                   lambda running: app_box.__setitem__(0, running))
-        models = models[0]
+        models, posture_model = models
         if args.bus == "sim" and trajectory is not None:
             x, y, flag = trajectory
             simulation = simulate_trajectory(models, x, y, flag, link=link, bus=bus,
@@ -454,7 +457,8 @@ def _serve(args, models, trajectory, bus) -> int:
             return 0
         if args.bus == "sim":
             bus.attach(0, SimulatedFifoPeripheral(reads_per_frame=1))
-        app = GestureApp(models, FifoPeripheral(bus), link, **options)
+        app = GestureApp(models, FifoPeripheral(bus), link,
+                         posture=_posture_tracker(args, bus, posture_model), **options)
         log.info("running: bus %s, robot %s, %d classes %s", args.bus, args.robot,
                  len(models.class_names), list(models.class_names))
         app.run()

@@ -213,6 +213,9 @@ class GestureResult:
         What became of the telegram (:class:`sw_hps.robot.Delivery`):
         ``"acknowledged"`` by the brick, ``"unconfirmed"`` or ``"failed"``;
         None when nothing was sent.
+    posture, posture_share : str or None, float or None
+        The posture held over most of the gesture's frames and their share in
+        it (None without a posture tracker, or for a dropped gesture).
     """
     outcome: str
     class_index: int = -1
@@ -225,6 +228,8 @@ class GestureResult:
     telegram: bytes | None = None
     sent: bool = False
     delivery: str | None = None
+    posture: str | None = None
+    posture_share: float | None = None
 
     @property
     def recognised(self) -> bool:
@@ -238,7 +243,8 @@ class GestureResult:
                 "num_points": self.num_points, "num_symbols": self.num_symbols,
                 "reason": self.reason,
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
-                "sent": self.sent, "delivery": self.delivery}
+                "sent": self.sent, "delivery": self.delivery, "posture": self.posture,
+                "posture_share": self.posture_share}
 
 
 class GestureClassifier:
@@ -379,6 +385,10 @@ class GestureApp:
     max_fault_interval : float in (0, 60]
         Longest sleep between two probes of the registers during a bus fault
         (module docstring, Faults).
+    posture : sw_hps.posture.PostureTracker, optional
+        Polled at every step (the posture slave's latest record, counted by its
+        own sequence number); each classified gesture then names the posture
+        held over the frames from its start to its end.
 
     Attributes
     ----------
@@ -402,7 +412,7 @@ class GestureApp:
                  max_bad_points: int = DEFAULT_MAX_BAD_POINTS,
                  frame_width: int = FRAME_WIDTH, frame_height: int = FRAME_HEIGHT,
                  clock: Callable[[], float] = time.monotonic,
-                 max_fault_interval: float = MAX_FAULT_INTERVAL):
+                 max_fault_interval: float = MAX_FAULT_INTERVAL, posture=None):
         check_models(models)
         for name, value in (("max_points", max_points), ("max_pairs_per_poll", max_pairs_per_poll)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -474,6 +484,8 @@ class GestureApp:
         self._error_lines = RepeatFilter(self.heartbeat or FAULT_REMINDER, clock)
         self._slept = False          # the current step slept
         self._busy_steps = 0         # steps in a row without any sleep
+        self.posture = posture
+        self._posture_first = None   # the posture record the gesture began at
 
     # ---- control ----------------------------------------------------------------
     def request_stop(self) -> None:
@@ -609,6 +621,8 @@ class GestureApp:
         action = {State.INIT: self._init, State.WAIT: self._wait, State.READ: self._read,
                   State.CLASSIFY: self._classify, State.SEND: self._send,
                   State.CLEAR: self._clear}[self.state]
+        if self.posture is not None and action in (self._wait, self._read):
+            self.posture.poll()      # never raises: a fault costs that frame's posture
         action()
 
     def _status(self, *, just_set: bool = False) -> FifoStatus:
@@ -655,6 +669,8 @@ class GestureApp:
                 return
         if status.data or status.gesture_active:
             log.debug("S1: gesture started")
+            if self.posture is not None:
+                self._posture_first = self.posture.reader.frame
             self.classifier.reset()
             self._gesture_bad_points = 0
             self._last_pair_at = self._clock()
@@ -843,14 +859,18 @@ class GestureApp:
         common = dict(scores=scores, num_points=self.classifier.num_points,
                       num_symbols=self.classifier.num_symbols,
                       symbols=tuple(self.classifier.symbols))
+        if self.posture is not None:
+            common["posture"], common["posture_share"] = self.posture.held(
+                self._posture_first, self.posture.reader.frame)
         if index < 0:
             log.info("S3: gesture rejected: %s", reason)
             self._pending = GestureResult("rejected", reason=reason, **common)
             self.state = State.CLEAR
             return
         name = self.models.class_names[index]
-        log.info("S3: recognised %r (class %d, log-likelihood %.2f, %d symbols)", name, index,
-                 scores[index], self.classifier.num_symbols)
+        log.info("S3: recognised %r (class %d, log-likelihood %.2f, %d symbols%s)", name, index,
+                 scores[index], self.classifier.num_symbols,
+                 "" if self.posture is None else f", posture {common['posture']}")
         self._pending = GestureResult("recognised", class_index=index, class_name=name, **common)
         self.state = State.SEND
 

@@ -110,11 +110,15 @@ class PostureReader:
     ----------
     records, torn : int
         Records read, and reads given up or repeated because they may be torn.
+    frame : int or None
+        The last record read, counted in records since the first one read
+        (SEQ without its wrap; None before the first).
     """
 
     def __init__(self, bus, offset=POSTURE_OFFSET, retries=2):
         self.bus, self.offset, self.retries = bus, int(offset), int(retries)
         self.last_seq = None
+        self.frame = None
         self.records = 0
         self.torn = 0
 
@@ -136,6 +140,8 @@ class PostureReader:
             words = [self._read(POSTURE_DATA) for _ in range(POSTURE_WORD_COUNT)]
             after = self._read(POSTURE_STATUS) & POSTURE_STATUS_SEQ
             if (after - seq) & POSTURE_STATUS_SEQ < 2:
+                self.frame = 0 if self.frame is None else \
+                    self.frame + ((seq - self.last_seq) & POSTURE_STATUS_SEQ)
                 self.last_seq = seq
                 self.records += 1
                 return seq, words
@@ -167,11 +173,15 @@ def held_posture(names):
 
 
 class PostureTracker:
-    """Each frame's posture while the board application streams: at each poll
+    """Each frame's posture while the board application runs: at each poll
     the latest record (:class:`PostureReader`) is classified by ``model`` and
     kept for the frame the poll reached (the last ``keep`` frames); a
     gesture's posture is then :meth:`held` over its frames. A fault of the
     reader or the model costs that frame's posture, never the loop.
+
+    The streaming loop numbers frames by the FIFO's records; the thesis loop,
+    which sees no frames outside gestures, by the posture records themselves
+    (``frame`` None: the reader's :attr:`PostureReader.frame`).
 
     Attributes
     ----------
@@ -189,12 +199,15 @@ class PostureTracker:
         """A new stream: frames count from 0 again."""
         self.names.clear()
 
-    def poll(self, frame):
-        """Read the latest record, if new, as frame ``frame``'s posture."""
+    def poll(self, frame=None):
+        """Read the latest record, if new, as frame ``frame``'s posture (None:
+        the record's own number)."""
         try:
             record = self.reader.read()
             if record is None:
                 return
+            if frame is None:
+                frame = self.reader.frame
             name = record_posture(self.model, record[1])
         except Exception:
             self.errors += 1
@@ -205,7 +218,11 @@ class PostureTracker:
 
     def held(self, first, last):
         """``(name, share)`` over the frames ``first`` .. ``last`` (frames without
-        a record count as unknown)."""
+        a record count as unknown; at most the last ``keep``); ``(None, None)``
+        if either is None."""
+        if first is None or last is None:
+            return None, None
+        first = max(first, last - self.keep + 1)
         return held_posture(self.names.get(f) for f in range(first, last + 1))
 
 

@@ -601,7 +601,7 @@ BOARD_CASES = [
     (["--model", "{model}", "--bus", "sim"], "--robot"),
     (["--bus", "sim", "--robot", "none"], "--model"),
     (["--model", "{model}", "--bus", "sim", "--robot", "none", "--posture-model", "{text}"],
-     "argument --posture-model: goes with --spotting continuous"),
+     "text.json"),
     (["--model", "{continuous}", "--bus", "sim", "--robot", "none", "--spotting",
       "continuous", "--posture-model", "{text}"], "text.json"),
     (["--model", "{continuous}", "--bus", "sim", "--robot", "none", "--spotting",

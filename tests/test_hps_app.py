@@ -663,3 +663,55 @@ def test_simulate_trajectory_builds_without_running():
     run = simulate_trajectory(MODELS, *gesture_frames("back"))
     assert run.results == [] and run.app.state is State.INIT
     assert run.run().recognised == ["back"] and run.finished()
+
+
+def test_thesis_mode_names_the_posture_held_over_each_gesture():
+    """With a posture tracker the thesis loop polls the posture slave at every
+    step; each gesture names the posture held over the records from the poll
+    that saw it start to the one that saw it end (records counted by SEQ)."""
+    from soc.hps_interface import POSTURE_WORD_COUNT, posture_word_offsets
+    from sw_hps.posture import POSTURE_OFFSET, PostureReader, PostureTracker
+    from sw_hps.simulated import SimulatedPostureSlave
+
+    at = posture_word_offsets()
+    slave = SimulatedPostureSlave()
+
+    def record(posture):            # the fake model reads the posture from a polar word
+        words = [0] * POSTURE_WORD_COUNT
+        words[at["reference_width"]], words[at["polar"]] = 10, posture
+        return words
+
+    class Model:
+        def classify(self, features):
+            return {1: "fist", 2: "asl1"}.get(int(features[0] * 100))
+
+    class Fifo(SimulatedFifoPeripheral):      # a posture record with every video frame
+        def push_frame(self, x_fixed, y_fixed, flag, present=True):
+            super().push_frame(x_fixed, y_fixed, flag, present)
+            # "asl1" in the first 20 flagged frames of the second gesture, else "fist"
+            slave.push_record(record(2 if flag and self.frames > 110 and
+                                     self.frames <= 130 else 1))
+
+    x1, y1, f1 = gesture_frames("back")
+    x2, y2, f2 = gesture_frames("left")
+    peripheral = Fifo(reads_per_frame=1)
+    peripheral.queue_trajectory(np.r_[x1, x2], np.r_[y1, y2], np.r_[f1, f2], pixels=True)
+    bus = SimBus(peripheral)
+    bus.attach(POSTURE_OFFSET, slave)
+    tracker = PostureTracker(PostureReader(bus), Model())
+    from sw_hps.simulated import SimulatedClock, SimulationRun
+    clock = SimulatedClock()
+    app = GestureApp(MODELS, FifoPeripheral(bus), NullLink(), sleep=clock.sleep, clock=clock,
+                     posture=tracker)
+    results = SimulationRun(app, peripheral, NullLink(), 10_000).run().results
+    assert [r.class_name for r in results] == ["back", "left"]
+    assert results[0].posture == "fist" and results[0].posture_share >= 0.9
+    # 20 of the second gesture's 60 frames in asl1: fist holds, with about 2/3
+    assert results[1].posture == "fist" and 0.6 <= results[1].posture_share <= 0.72
+    assert results[1].to_dict()["posture"] == "fist"
+    # every record but the ones after the last poll was read, numbered from the first
+    assert slave.records - 3 <= tracker.reader.frame == tracker.reader.records - 1
+    assert tracker.errors == 0
+    # without a tracker nothing changes and no posture is named
+    plain = run_on_trajectory(MODELS, x1, y1, f1).results
+    assert [(r.class_name, r.posture) for r in plain] == [("back", None)]

@@ -295,7 +295,7 @@ def test_the_tracker_classifies_each_new_record_once():
             return "fist" if features[0] > 0 else None
     slave, bus = SimulatedPostureSlave(), SimBus()
     bus.attach(POSTURE_OFFSET, slave)
-    tracker = PostureTracker(PostureReader(bus), Model(), keep=3)
+    tracker = PostureTracker(PostureReader(bus), Model(), keep=4)
     at = posture_word_offsets()
     hand = [0] * POSTURE_WORD_COUNT
     hand[at["reference_width"]], hand[at["polar"]] = 10, 50
@@ -305,8 +305,10 @@ def test_the_tracker_classifies_each_new_record_once():
         tracker.poll(frame)
         tracker.poll(frame)          # nothing new: no second decision
     assert Model.calls == 3                      # the frame without a hand is not classified
-    assert tracker.names == {1: "fist", 2: None, 3: "fist"} and tracker.last == "fist"
+    assert tracker.names == {0: "fist", 1: "fist", 2: None, 3: "fist"} and tracker.last == "fist"
     assert tracker.held(1, 4) == ("fist", 0.5)
+    assert tracker.held(2, 10 ** 9) == (None, 1.0)      # at most the last keep frames
+    assert tracker.held(None, 4) == (None, None)        # no record when the gesture began
     slave.read32 = lambda offset: 1 / 0          # a fault costs the frame, not the loop
     tracker.poll(4)
     assert tracker.errors == 1 and 4 not in tracker.names
