@@ -64,7 +64,7 @@ model: $(STAMP)
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
 		--emission discrete --continuous
 	$(BIN)/stereogest postures -o build/postures_easy.npz --people 100 --seed 1000 --quiet
-	$(BIN)/stereogest postures -o build/postures_hard.npz --people 100 --seed 2000 \
+	$(BIN)/stereogest postures -o build/postures_hard.npz --people 200 --seed 2000 \
 		--scene hard --quiet
 	$(BIN)/stereogest train-posture build/postures_easy.npz build/postures_hard.npz \
 		-o sw_hps/models/posture.json --groups subject --copies 0 --seed 0

@@ -4,10 +4,12 @@ through the golden model of the whole pipeline.
 Each person (seeds ``--seed`` ... ``--seed + --people - 1``; the shipped model
 is trained on seeds 1000-1099 and 2000-2099, ``make model``) holds each
 posture (``sim.hand_postures``) still in front of the chest at 640x480; the
-frame goes through :func:`sim.model.pipeline.process_frame` three times, as a
-hand held still in a stream (the hand tracking's window then stands about the
-hand's own centroid, and the posture's reference comes from a windowed frame),
-and the last frame's posture record through the board's reader path (:func:`sw_hps.posture.decode_posture_words`,
+frame goes through the golden model of the pipeline three times, as a hand
+held still in a stream and as the training people's frames
+(:func:`recognition.posture_renders.present_still`: the hand tracking's window
+then stands about the hand's own centroid, and the posture's reference comes
+from a windowed frame), and the last frame's posture record through the
+board's reader path (:func:`sw_hps.posture.decode_posture_words`,
 ``record_features``) to the classifier. The easy scene with the thesis'
 pipeline, and the hard scene (every difficulty, each person's skin tone and
 hand size) with hand tracking (``--hand-tracking``: the posture's window).
@@ -44,20 +46,13 @@ PHOTOS = ROOT / "data" / "hand_postures" / "sign_language_digits_dev.npz"
 def still_records(scene: str, seeds, width=640, height=480):
     """(features, labels): each person's still of each posture through the
     pipeline's golden model, its record decoded as the board decodes it."""
-    from recognition.posture_renders import posture_still
-    from sim.model.pipeline import process_frame
-    from sim.model.posture import posture_reference
+    from recognition.posture_renders import posture_still, present_still
     from sw_hps.posture import decode_posture_words, record_features
     features, labels = [], []
     for seed in seeds:
         for label, name in enumerate(POSTURE_NAMES):
             person, params = posture_still(name, seed, width=width, height=height, scene=scene)
-            left, right = person.stereo_frame(0)
-            still = None
-            for _ in range(3):
-                still = process_frame(
-                    left, right, params, previous=None if still is None else still.centroid,
-                    reference=None if still is None else posture_reference(still.posture))
+            still = present_still(*person.stereo_frame(0), params)
             features.append(record_features(decode_posture_words(still.posture_words())))
             labels.append(label)
     return np.array(features), np.array(labels)
@@ -89,7 +84,7 @@ def compare(people, report):
     names = list(POSTURE_NAMES)
     train = [render_postures(names, range(1000, 1100), scene="easy"),
              render_postures(names, range(2000, 2100), scene="hard")]
-    r_features = np.vstack([rp.still_features(t["mask"]) for t in train])
+    r_features = np.vstack([t["features"] for t in train])
     r_labels = np.concatenate([t["label"] for t in train])
     photos = rp.load_postures(PHOTOS)
     p_masks = rp.picture_masks(photos)

@@ -26,7 +26,8 @@ import numpy as np
 from sim.model.posture import FEATURES, describe_still
 from sw_hps.posture import PostureModel
 
-__all__ = ["PostureSet", "load_postures", "picture_hand", "picture_masks", "still_features", "augment_masks",
+__all__ = ["PostureSet", "load_postures", "picture_hand", "picture_masks", "still_features",
+           "picture_features", "augment_masks",
            "train_posture", "choose_c", "grouped_predictions", "C_CHOICES", "GAMMA_PER_FEATURE",
            "ASL_NAMES", "ASL_FINGERS"]
 
@@ -48,13 +49,16 @@ class PostureSet:
     """Labelled pictures: ``image`` (N, H, W, 3) uint8 RGB, ``label`` (N,) ints
     indexing ``class_names``, ``subject`` (N,) ints or None, ``mask`` (N, H, W)
     bool or None: the camera's segmented mask of each picture (rendered
-    frames through the pipeline), used instead of the picture path."""
+    frames through the pipeline), used instead of the picture path;
+    ``features`` (N, FEATURES) or None: the features of the pipeline's own
+    posture record of each picture, used instead of the mask's."""
 
     image: np.ndarray
     label: np.ndarray
     class_names: list
     subject: np.ndarray | None
     mask: np.ndarray | None = None
+    features: np.ndarray | None = None
 
     def __len__(self):
         return len(self.label)
@@ -63,9 +67,11 @@ class PostureSet:
 def load_postures(path) -> PostureSet:
     """A DATA.npz of pictures: ``image`` (N x H x W x 3 uint8 RGB), ``label``
     (ints, indexing ``class_names`` if given, else 0-9 as ``asl0`` ...
-    ``asl9``), optional ``subject`` and ``mask`` (N x H x W bool: the
-    pipeline's segmented mask of each picture, :mod:`recognition.posture_renders`).
-    ``ValueError`` names the file and the key."""
+    ``asl9``), optional ``subject``, ``mask`` (N x H x W bool: the
+    pipeline's segmented mask of each picture) and ``features`` (N x FEATURES
+    finite floats: the features of the pipeline's posture record of each
+    picture; both from :mod:`recognition.posture_renders`). ``ValueError``
+    names the file and the key."""
     from recognition.datasets import read_npz
     path = Path(path)
     if not path.is_file():
@@ -105,8 +111,14 @@ def load_postures(path) -> PostureSet:
     if mask is not None and (mask.dtype != bool or mask.shape != image.shape[:3]):
         raise ValueError(f"{path}: mask must be bool N x H x W like image {image.shape[:3]}, "
                          f"got {mask.dtype} {mask.shape}")
+    features = arrays.get("features")
+    if features is not None and (features.dtype.kind != "f" or features.shape != (len(label), FEATURES)
+                                 or not np.isfinite(features).all()):
+        raise ValueError(f"{path}: features must be {len(label)} x {FEATURES} finite floats "
+                         f"(one row per image), got {features.dtype} {features.shape}")
     return PostureSet(image, label.astype(np.int64), names,
-                      None if subject is None else subject.astype(np.int64), mask)
+                      None if subject is None else subject.astype(np.int64), mask,
+                      None if features is None else features.astype(float))
 
 
 def picture_hand(image) -> np.ndarray:
@@ -139,6 +151,14 @@ def picture_masks(data: PostureSet, name="DATA.npz") -> np.ndarray:
 def still_features(masks) -> np.ndarray:
     """The features of each hand mask presented as a still picture (N x FEATURES)."""
     return np.array([describe_still(m)[1] for m in masks]).reshape(-1, FEATURES)
+
+
+def picture_features(data: PostureSet, name="DATA.npz") -> np.ndarray:
+    """The classifier's input for every picture: the file's ``features`` (the
+    pipeline's own records) if it has them, else the masks' as still pictures."""
+    if data.features is not None:
+        return data.features
+    return still_features(picture_masks(data, name))
 
 
 def _forearm(mask, shrink: float) -> np.ndarray:

@@ -97,6 +97,11 @@ def _posture_inputs(root):
     white = image.copy()
     white[5] = 255                                         # a picture without skin
     np.savez(root / "postures_no_skin.npz", image=white, label=label)
+    features = np.zeros((len(label), 176))   # FEATURES
+    features[3, 7] = np.nan                                # a record that is not one
+    np.savez(root / "postures_nan_features.npz", image=image, label=label, features=features)
+    np.savez(root / "postures_short_features.npz", image=image, label=label,
+             features=np.zeros((len(label), 5)))
     data = rp.load_postures(root / "postures.npz")
     model = rp.train_posture(rp.still_features(rp.picture_masks(data)), data.label,
                              data.class_names, c=10.0)
@@ -338,6 +343,10 @@ CASES = [
          match="postures_two_names.npz: label must be in 0..1"),
     case("train-posture", f"{IN}/postures_no_skin.npz", "-o", f"{OUT}/p.json",
          match="postures_no_skin.npz: image 5 has no skin-coloured pixel"),
+    case("train-posture", f"{IN}/postures_nan_features.npz", "-o", f"{OUT}/p.json",
+         match="postures_nan_features.npz: features must be 20 x 176 finite floats"),
+    case("classify-posture", f"{IN}/posture.json", f"{IN}/postures_short_features.npz",
+         match="postures_short_features.npz: features must be 20 x 176"),
     case("train-posture", f"{IN}/postures_no_subject.npz", "-o", f"{OUT}/p.json", "--groups",
          "subject", match="--groups subject needs a subject array"),
     # ------------------------------------------------------------ postures

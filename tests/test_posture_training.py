@@ -129,6 +129,14 @@ def test_rendered_postures_through_the_pipeline_and_joined_training(tmp_path, sm
     assert np.array_equal(rp.picture_masks(data), data.mask) and data.mask.any(axis=(1, 2)).all()
     areas = data.mask.sum(axis=(1, 2))
     assert areas[1] > areas[0] and areas[4] > areas[3]     # the open hand outgrows the fist
+    # the features are the pipeline's third presentation's record, decoded as the board does
+    from recognition.posture_renders import posture_still, present_still
+    from sw_hps.posture import decode_posture_words, record_features
+    person, params = posture_still("asl1", 41, width=320, height=240)
+    still = present_still(*person.stereo_frame(0), params)
+    assert np.array_equal(data.features[5],
+                          record_features(decode_posture_words(still.posture_words())))
+    assert np.array_equal(rp.picture_features(data), data.features)
     path, _ = small
     out = tmp_path / "joined.json"
     assert main(["train-posture", str(path), str(rendered), "-o", str(out), "--groups",

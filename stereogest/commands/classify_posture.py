@@ -47,7 +47,7 @@ def run(args) -> int:
         raise ValueError(f"{args.data}: class_names {', '.join(unknown)} are not postures of "
                          f"{args.model} ({', '.join(model.class_names)})")
     truth = np.array([model.class_names.index(data.class_names[k]) for k in data.label])
-    decided = model.decide(rp.still_features(rp.picture_masks(data, args.data)))
+    decided = model.decide(rp.picture_features(data, args.data))
     confusion = confusion_matrix(truth, decided, len(model.class_names))
     present = confusion.sum(axis=1) > 0
     report = {"model": str(args.model), "data": str(args.data), "pictures": len(data),

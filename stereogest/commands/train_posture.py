@@ -3,9 +3,11 @@ model file the board loads (sw_hps.posture).
 
 Each picture goes the camera's way (recognition.posture.picture_hand: the
 model's YCbCr, 4:2:2, the skin box, the band all-in), then the posture mask
-and the descriptor (sim.model.posture), presented as a still picture. Each
-training picture adds --copies turned, scaled and (half of them) longer-armed
-copies. C is chosen by a cross-validation over --groups (whole subjects apart;
+and the descriptor (sim.model.posture), presented as a still picture; a file
+from 'stereogest postures' brings the pipeline's own records' features
+instead, and its masks presented as still pictures are added as copies.
+Each training picture adds --copies turned, scaled and (half of them)
+longer-armed copies of its mask. C is chosen by a cross-validation over --groups (whole subjects apart;
 without it, pictures apart). Prints a JSON last line."""
 from __future__ import annotations
 
@@ -24,9 +26,9 @@ _COPIES_RANGE = (0, 32)
 def add_arguments(p):
     p.add_argument("data", metavar="DATA.npz", nargs="+",
                    help="pictures: image (N x H x W x 3 uint8 RGB), label (ints; class_names "
-                        "if given, else asl0..asl9), optional subject and mask (the camera's "
-                        "segmented mask, 'stereogest postures'); several files are joined "
-                        "by class name, each file's subjects apart")
+                        "if given, else asl0..asl9), optional subject, mask and features (the "
+                        "pipeline's mask and posture record, 'stereogest postures'); several "
+                        "files are joined by class name, each file's subjects apart")
     p.add_argument("-o", "--output", metavar="POSTURE.json", required=True,
                    help="model file to write")
     p.add_argument("--groups", choices=("subject",), default=None,
@@ -60,21 +62,27 @@ def run(args) -> int:
         names += [n for n in data.class_names if n not in names]
     features, labels, groups, aug_features, aug_labels, aug_of = [], [], [], [], [], []
     for k, (path, data) in enumerate(zip(args.data, sets)):
-        masks = rp.picture_masks(data, path)
         label = np.array([names.index(data.class_names[i]) for i in data.label], np.int64)
         offset = sum(len(f) for f in features)
-        features.append(rp.still_features(masks))
+        features.append(rp.picture_features(data, path))
         labels.append(label)
         # each file's subjects (or pictures) are groups of their own
         own = data.subject if args.groups == "subject" else np.arange(len(data))
         groups.append([f"{k}:{g}" for g in own])
-        augmented = rp.augment_masks(masks, args.copies, seed=args.seed + k)
-        aug_features.append(rp.still_features(augmented))
-        aug_labels.append(np.tile(label, args.copies))
-        aug_of.append(offset + np.tile(np.arange(len(data)), args.copies))
+        copies = args.copies
+        if copies:
+            augmented = rp.augment_masks(rp.picture_masks(data, path), copies,
+                                         seed=args.seed + k)
+            aug_features.append(rp.still_features(augmented))
+        if data.features is not None and data.mask is not None:
+            # the record's mask as a still picture: the same hand about its own reference
+            aug_features.append(rp.still_features(data.mask))
+            copies += 1
+        aug_labels.append(np.tile(label, copies))
+        aug_of.append(offset + np.tile(np.arange(len(data)), copies))
     features, labels = np.vstack(features), np.concatenate(labels)
     groups = np.unique(np.concatenate(groups), return_inverse=True)[1]
-    aug_features = np.vstack(aug_features).reshape(-1, features.shape[1])
+    aug_features = np.vstack(aug_features or [np.zeros((0, features.shape[1]))])
     aug_labels, aug_of = np.concatenate(aug_labels), np.concatenate(aug_of)
     c = rp.choose_c(features, labels, groups, names, augmented=aug_features,
                     augmented_labels=aug_labels, augmented_of=aug_of)
