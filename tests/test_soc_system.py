@@ -43,8 +43,34 @@ def system_run():
     left, right = small_frames(12, W, H)
     trajectory, kept = run_clip(left, right, SMALL, keep=lambda n: n == 11)
     left, right, played, extra = hold_still(left, right, trajectory, SMALL, kept[11])
-    result = run_end_to_end(left, right, models, played, kept[11], SMALL, stage="left")
+    result = run_end_to_end(left, right, models, played, kept[11], SMALL, stage="left",
+                            posture_model=_AnyHand())
     return result, played, extra, kept[11]
+
+
+class _AnyHand:
+    """A posture model that names every described hand "hand"."""
+
+    def classify(self, features):
+        return "hand" if np.any(features) else None
+
+
+def test_the_board_application_names_postures_through_the_soc(system_run):
+    """With a posture model the thesis loop polls the posture slave over the
+    bridge while it reads the FIFO (whose words still equal the model's, in
+    the test below); each finished gesture names the posture held over the
+    records it read, as the model's records name it (in these small frames
+    the hand is described in 2 of the gesture's 7 frames: no posture)."""
+    from sw_hps.posture import held_posture, record_posture
+    result, played, _, _ = system_run
+    finished = [r for r in result.results if r["outcome"] != "dropped"]
+    names = [record_posture(_AnyHand(), words) for words in played.posture]
+    assert names.count("hand") == 2
+    expected = held_posture(n for n, f in zip(names, played.flag) if f)[0]
+    assert finished
+    for r in finished:
+        assert r["posture_share"] is not None          # records were read over its span
+        assert r["posture"] == expected
 
 
 def test_the_last_posture_record_through_the_soc_equals_the_golden_model(system_run):

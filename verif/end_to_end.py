@@ -172,7 +172,7 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
                    *, stage: str = "opening", clocks: Clocks = Clocks(),
                    poll_interval: float = 0.005, progress=None, exe=None,
                    rectification=None, vga_scale: int | None = None,
-                   spotting: str = "thesis") -> EndToEndResult:
+                   spotting: str = "thesis", posture_model=None) -> EndToEndResult:
     """Play a clip into the Verilated core and run the board application on it.
 
     Parameters
@@ -201,6 +201,9 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         streaming mode (every frame's record popped, compared word for word
         with :func:`sw_hps.simulated.streaming_words`), and names what is
         pending when the cameras have stopped and the FIFO is empty.
+    posture_model : sw_hps.posture.PostureModel, optional
+        The application then reads the posture slave as the board does
+        (``--posture-model``) and its results name each gesture's posture.
     """
     from hdl.gesture_pipeline import VIDEO_STAGES, pipeline_timing
     from hdl.lrcc import disparity_bits
@@ -235,15 +238,20 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
         bus = SystemBus(system)
         # The app's timeouts run on the hardware's simulated time (a simulated frame
         # takes far longer than 33 ms of wall time), its frame is the clip's.
+        tracker = None
+        if posture_model is not None:
+            from sw_hps.posture import PostureReader, PostureTracker
+            tracker = PostureTracker(PostureReader(bus), posture_model)
         if spotting == "continuous":
             from sw_hps.streaming import StreamingApp
             app = StreamingApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
-                               sleep=bus.sleep, poll_interval=poll_interval, frame_width=width)
+                               sleep=bus.sleep, poll_interval=poll_interval, frame_width=width,
+                               posture=tracker)
         else:
             app = GestureApp(models, FifoPeripheral(bus), UartLink(bus, UART_BASE),
                              sleep=bus.sleep, poll_interval=poll_interval,
                              clock=lambda: system.cycles / clocks.sync_hz,
-                             frame_width=width, frame_height=height)
+                             frame_width=width, frame_height=height, posture=tracker)
         done_at = [None]
         shown = [0]
         started = time.perf_counter()     # after the build: the rate is the simulation's
@@ -300,10 +308,11 @@ def run_end_to_end(left_frames, right_frames, models, trajectory: Trajectory,
 def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "opening",
                     keep=(), threads=None, model_progress=None, progress=None, exe=None,
                     rectification=None, vga_scale: int | None = None,
-                    spotting: str = "thesis"):
+                    spotting: str = "thesis", posture_model=None):
     """A rendered clip end to end: the golden model over every frame (keeping the
     stages of the frames in ``keep`` and of the last one), the hold-still
-    extension, then :func:`run_end_to_end` (with ``spotting``). Returns (model
+    extension, then :func:`run_end_to_end` (with ``spotting`` and
+    ``posture_model``). Returns (model
     trajectory of the clip as played, kept stages, repeats of the last frame,
     EndToEndResult)."""
     from sim.model.pipeline import run_clip
@@ -316,5 +325,5 @@ def clip_end_to_end(clip, models, params: PipelineParams, *, stage: str = "openi
     result = run_end_to_end(left, right, models, played, kept[clip.frames - 1], params,
                             stage=stage, progress=progress, exe=exe,
                             rectification=rectification, vga_scale=vga_scale,
-                            spotting=spotting)
+                            spotting=spotting, posture_model=posture_model)
     return played, kept, extra, result

@@ -231,7 +231,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         trajectory, kept, extra, result = clip_end_to_end(
             clip, models, params, stage=args.stage, keep=chosen, threads=args.threads,
             model_progress=progress_printer(args.quiet), progress=say,
-            rectification=rectification, vga_scale=args.vga_scale, spotting=args.spotting)
+            rectification=rectification, vga_scale=args.vga_scale, spotting=args.spotting,
+            posture_model=posture_model)
     pictures = out / "pipeline"
     for pattern in STALE:                # a reused folder: no old picture passes for new
         for old in pictures.glob(pattern):
@@ -295,6 +296,16 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                   f"{BUS_ACCESSES_PER_RECORD} bus accesses): "
                   + ("equal to the golden model's" if posture_ok else
                      "DIFFERENT from the golden model's"))
+        board_postures = [(r["class_name"], r.get("posture"), r.get("posture_share"))
+                          for r in result.results if r.get("outcome", "recognised")
+                          == "recognised"]
+        if posture_model is not None and board_postures:
+            print("board application's postures (read from the posture slave as it ran): "
+                  + ", ".join(f"{name} in {posture or 'no posture'}"
+                              + (f" ({share:.0%} of its frames)" if share is not None else "")
+                              for name, posture, share in board_postures))
+            report["board_postures"] = [{"name": n, "posture": p, "posture_share": sh}
+                                        for n, p, sh in board_postures]
         print(f"UART TX pin: {uart_hex or 'nothing'}"
               + (" (the application's telegrams)" if result.uart_matches_telegram
                  else " (DIFFERENT from the application's telegrams "
