@@ -2,10 +2,12 @@
 'stereogest train-posture' and 'classify-posture': --people persons (seeds
 --seed, --seed + 1, ...), each holding every posture still in front of the
 chest; each frame goes through the golden model of the whole pipeline
-(presented twice, as a still picture is), and the file keeps the left view
-about the hand (image), the pipeline's posture mask there (mask: skin AND
-the disparity band, opened, within the hand tracking's window in the hard
-scene; the posture commands use it instead of the picture path), the label (class_names: the postures) and the person (subject)."""
+(presented three times, as a hand held still in a stream), and the file
+keeps the left view about the hand (image), the pipeline's posture mask
+there (mask: skin AND the disparity band, opened, within the hand tracking's
+window in the hard scene), the features of the frame's posture record
+(features: the posture commands use them instead of the picture path), the
+label (class_names: the postures) and the person (subject)."""
 from __future__ import annotations
 
 import json
