@@ -2,7 +2,7 @@
 through the golden model of the whole pipeline.
 
 Each person (seeds ``--seed`` ... ``--seed + --people - 1``; the shipped model
-is trained on seeds 1000-1099 and 2000-2099, ``make model``) holds each
+is trained on :data:`TRAINING_PEOPLE`, ``make model``) holds each
 posture (``sim.hand_postures``) still in front of the chest at 640x480; the
 frame goes through the golden model of the pipeline three times, as a hand
 held still in a stream and as the training people's frames
@@ -42,6 +42,8 @@ from sim.hand_postures import POSTURE_NAMES, extended_fingers  # noqa: E402
 from stereogest.pipeline_outputs import load_posture_model  # noqa: E402
 
 PHOTOS = ROOT / "data" / "hand_postures" / "sign_language_digits_dev.npz"
+#: The people (seeds) per scene the shipped model learns, as ``make model`` renders them.
+TRAINING_PEOPLE = {"easy": range(1000, 1100), "hard": range(2000, 2200)}
 
 
 def still_records(scene: str, seeds, width=640, height=480):
@@ -83,8 +85,8 @@ def compare(people, report):
     from recognition import posture as rp
     from recognition.posture_renders import render_postures
     names = list(POSTURE_NAMES)
-    train = [render_postures(names, range(1000, 1100), scene="easy"),
-             render_postures(names, range(2000, 2100), scene="hard")]
+    train = [render_postures(names, seeds, scene=scene)
+             for scene, seeds in TRAINING_PEOPLE.items()]
     r_features = np.vstack([t["features"] for t in train])
     r_labels = np.concatenate([t["label"] for t in train])
     photos = rp.load_postures(PHOTOS)

@@ -700,10 +700,10 @@ def test_thesis_mode_names_the_posture_held_over_each_gesture():
     bus.attach(POSTURE_OFFSET, slave)
     tracker = PostureTracker(PostureReader(bus), Model())
     from sw_hps.simulated import SimulatedClock, SimulationRun
-    clock = SimulatedClock()
-    app = GestureApp(MODELS, FifoPeripheral(bus), NullLink(), sleep=clock.sleep, clock=clock,
+    clock, link = SimulatedClock(), NullLink()
+    app = GestureApp(MODELS, FifoPeripheral(bus), link, sleep=clock.sleep, clock=clock,
                      posture=tracker)
-    results = SimulationRun(app, peripheral, NullLink(), 10_000).run().results
+    results = SimulationRun(app, peripheral, link, 10_000).run().results
     assert [r.class_name for r in results] == ["back", "left"]
     assert results[0].posture == "fist" and results[0].posture_share >= 0.9
     # 20 of the second gesture's 60 frames in asl1: fist holds, with about 2/3

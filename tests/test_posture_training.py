@@ -149,3 +149,26 @@ def test_rendered_postures_through_the_pipeline_and_joined_training(tmp_path, sm
     assert main(["classify-posture", str(out), str(rendered), "--json"]) == 0
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert report["pictures"] == 6 and report["accuracy"] == 1.0    # its training pictures
+
+
+def test_the_rendered_benchmark_names_the_people_make_model_trains_on():
+    """benchmarks/rendered_posture_accuracy.py's TRAINING_PEOPLE are the seeds
+    of the Makefile's `stereogest postures` lines, per scene."""
+    import re
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "benchmarks"))
+    try:
+        from rendered_posture_accuracy import TRAINING_PEOPLE
+    finally:
+        sys.path.remove(str(root / "benchmarks"))
+    text = (root / "Makefile").read_text().replace("\\\n", " ")
+    made = {}
+    for line in text.splitlines():
+        if "stereogest postures" in line:
+            people = int(re.search(r"--people (\d+)", line).group(1))
+            seed = int(re.search(r"--seed (\d+)", line).group(1))
+            scene = re.search(r"--scene (\w+)", line)
+            made[scene.group(1) if scene else "easy"] = range(seed, seed + people)
+    assert made == TRAINING_PEOPLE

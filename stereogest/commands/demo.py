@@ -296,9 +296,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
                   f"{BUS_ACCESSES_PER_RECORD} bus accesses): "
                   + ("equal to the golden model's" if posture_ok else
                      "DIFFERENT from the golden model's"))
-        board_postures = [(r["class_name"], r.get("posture"), r.get("posture_share"))
-                          for r in result.results if r.get("outcome", "recognised")
-                          == "recognised"]
+        board_postures = [(r["class_name"], r["posture"], r["posture_share"])
+                          for r in result.results if r["outcome"] == "recognised"]
         if posture_model is not None and board_postures:
             print("board application's postures (read from the posture slave as it ran): "
                   + ", ".join(f"{name} in {posture or 'no posture'}"

@@ -7,8 +7,9 @@ and the descriptor (sim.model.posture), presented as a still picture; a file
 from 'stereogest postures' brings the pipeline's own records' features
 instead, and its masks presented as still pictures are added as copies.
 Each training picture adds --copies turned, scaled and (half of them)
-longer-armed copies of its mask. C is chosen by a cross-validation over --groups (whole subjects apart;
-without it, pictures apart). Prints a JSON last line."""
+longer-armed copies of its mask. C is chosen by a cross-validation over
+--groups (whole subjects apart; without it, pictures apart). Prints a JSON
+last line."""
 from __future__ import annotations
 
 import json
