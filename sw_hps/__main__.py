@@ -332,6 +332,14 @@ def _load_models(args):
     if args.posture_model is not None:
         from .posture import read_posture_model
         posture = read_posture_model(args.posture_model)
+    if models.postures is not None:
+        if posture is None:
+            raise UsageError(f"argument --posture-model: the model file {args.model} has a "
+                             "postures entry (command and stop postures): give the posture "
+                             "model it names")
+        from .posture_commands import check_posture_classes
+        check_posture_classes(models.postures, posture.class_names,
+                              where=f"{args.model}: postures")
     return models, posture
 
 

@@ -39,6 +39,17 @@ S4 ``SEND``
 S5 ``CLEAR``
     Clear the FIFOs (GO stays set) and return to S1.
 
+Postures
+--------
+With a posture tracker (``--posture-model``) each S1/S2 step reads the posture
+slave's latest record. A model file with a ``postures`` entry
+(:mod:`sw_hps.posture_commands`) then adds two rules: S3 refuses a gesture
+whose records were not in a command posture often enough (the telegram of one
+that was carries the power of its posture), and the stop posture held for
+``stop_frames`` records sends the stop telegram at once, from S1 or S2: a
+gesture in progress is dropped and ignored to its end, and S3 refuses every
+gesture until a record shows another posture.
+
 Faults
 ------
 Each fault is logged as a WARNING that names the register values and the reason,
@@ -138,6 +149,7 @@ from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFa
                        read_id)
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
+from .posture_commands import PostureCommands
 from .robot import FAILED, NullLink, deliver_gesture
 from .telegram import GESTURE_NAMES, hex_bytes
 
@@ -215,7 +227,13 @@ class GestureResult:
         None when nothing was sent.
     posture, posture_share : str or None, float or None
         The posture held over most of the gesture's frames and their share in
-        it (None without a posture tracker, or for a dropped gesture).
+        it (None without a posture tracker, or for a dropped gesture); with
+        posture commands, the command posture held and the share of the
+        frames in a command posture.
+    power : int or None
+        The telegram's motor power (posture commands with a power table).
+    by_posture : bool
+        A stop sent because the stop posture was held (no trajectory).
     """
     outcome: str
     class_index: int = -1
@@ -230,6 +248,8 @@ class GestureResult:
     delivery: str | None = None
     posture: str | None = None
     posture_share: float | None = None
+    power: int | None = None
+    by_posture: bool = False
 
     @property
     def recognised(self) -> bool:
@@ -244,7 +264,8 @@ class GestureResult:
                 "reason": self.reason,
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
                 "sent": self.sent, "delivery": self.delivery, "posture": self.posture,
-                "posture_share": self.posture_share}
+                "posture_share": self.posture_share, "power": self.power,
+                "by_posture": self.by_posture}
 
 
 class GestureClassifier:
@@ -388,7 +409,10 @@ class GestureApp:
     posture : sw_hps.posture.PostureTracker, optional
         Polled at every step (the posture slave's latest record, counted by its
         own sequence number); each classified gesture then names the posture
-        held over the frames from its start to its end.
+        held over the frames from its start to its end. Needed by a model file
+        with a ``postures`` entry (:mod:`sw_hps.posture_commands`): a gesture
+        is then refused unless made in a command posture, and the stop
+        posture sends the stop telegram at once (module docstring).
 
     Attributes
     ----------
@@ -486,6 +510,11 @@ class GestureApp:
         self._busy_steps = 0         # steps in a row without any sleep
         self.posture = posture
         self._posture_first = None   # the posture record the gesture began at
+        postures = getattr(models, "postures", None)
+        if postures is not None and posture is None:
+            raise ValueError("the model file's postures entry needs a posture tracker "
+                             "(--posture-model)")
+        self.commands = PostureCommands(postures) if postures is not None else None
 
     # ---- control ----------------------------------------------------------------
     def request_stop(self) -> None:
@@ -622,8 +651,32 @@ class GestureApp:
                   State.CLASSIFY: self._classify, State.SEND: self._send,
                   State.CLEAR: self._clear}[self.state]
         if self.posture is not None and action in (self._wait, self._read):
-            self.posture.poll()      # never raises: a fault costs that frame's posture
+            frame = self.posture.poll()   # never raises: a fault costs that frame's posture
+            if frame is not None and self.commands is not None \
+                    and self.commands.take(frame, self.posture.last):
+                self._stop_by_posture(frame)
+                return
         action()
+
+    def _stop_by_posture(self, frame: int) -> None:
+        """The stop posture was held: the stop telegram now; a gesture in
+        progress is dropped, and the rest of it ignored."""
+        stop = self.commands.options["stop"]
+        delivery = deliver_gesture(self.link, "stop")       # never raises
+        log.log(logging.WARNING if delivery.status == FAILED else logging.INFO,
+                "stop posture %s held since record %d: telegram %s %s", stop,
+                self.commands.stop_started, hex_bytes(delivery.telegram), delivery.describe())
+        index = list(self.models.class_names).index("stop") \
+            if "stop" in self.models.class_names else -1
+        self._finish(GestureResult("recognised", class_index=index, class_name="stop",
+                                   telegram=delivery.telegram, sent=delivery.written,
+                                   delivery=delivery.status, posture=stop, by_posture=True))
+        if self.state in (State.READ, State.CLASSIFY, State.SEND):
+            self._pending = GestureResult("dropped", num_points=self.classifier.num_points,
+                                          num_symbols=self.classifier.num_symbols,
+                                          reason="the stop posture was held")
+            self._start_discarding()
+            self.state = State.CLEAR
 
     def _status(self, *, just_set: bool = False) -> FifoStatus:
         """Read the status; :class:`BusFault` if Control reads what no working core
@@ -859,9 +912,21 @@ class GestureApp:
         common = dict(scores=scores, num_points=self.classifier.num_points,
                       num_symbols=self.classifier.num_symbols,
                       symbols=tuple(self.classifier.symbols))
+        verdict = None
         if self.posture is not None:
             common["posture"], common["posture_share"] = self.posture.held(
                 self._posture_first, self.posture.reader.frame)
+            if self.commands is not None and index >= 0:
+                first, last = self._posture_first, self.posture.reader.frame
+                names = [] if first is None or last is None else \
+                    [self.posture.names.get(f) for f in range(first, last + 1)]
+                verdict = self.commands.judge_names(names)
+                common["posture"], common["posture_share"] = verdict.posture, verdict.share
+                if not verdict.commands:
+                    index, reason = -1, (
+                        "the stop posture is held" if self.commands.latched else
+                        f"not made in a command posture ({100 * verdict.share:.0f} % of its "
+                        f"frames in one, {100 * self.commands.options['share']:.0f} % needed)")
         if index < 0:
             log.info("S3: gesture rejected: %s", reason)
             self._pending = GestureResult("rejected", reason=reason, **common)
@@ -871,7 +936,8 @@ class GestureApp:
         log.info("S3: recognised %r (class %d, log-likelihood %.2f, %d symbols%s)", name, index,
                  scores[index], self.classifier.num_symbols,
                  "" if self.posture is None else f", posture {common['posture']}")
-        self._pending = GestureResult("recognised", class_index=index, class_name=name, **common)
+        self._pending = GestureResult("recognised", class_index=index, class_name=name,
+                                      power=None if verdict is None else verdict.power, **common)
         self.state = State.SEND
 
     def _send(self) -> None:  # S4
@@ -881,7 +947,7 @@ class GestureApp:
             log.warning("S4: class %r is not one of the robot's gestures %s; nothing sent",
                         result.class_name, list(GESTURE_NAMES))
             return
-        delivery = deliver_gesture(self.link, result.class_name)  # never raises
+        delivery = deliver_gesture(self.link, result.class_name, result.power)  # never raises
         log.log(logging.WARNING if delivery.status == FAILED else logging.INFO,
                 "S4: telegram %s for %r %s", hex_bytes(delivery.telegram), result.class_name,
                 delivery.describe())

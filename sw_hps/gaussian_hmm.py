@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .hmm import MODEL_FORMAT, MODEL_VERSION, check_thresholds, decide
+from .posture_commands import check_posture_commands
 from .stroke import FEATURE_NAMES, RESAMPLE_RANGE, stroke_features
 
 __all__ = ["GaussianHMM", "GaussianGestureModels", "log_emissions", "forward_log_lattice",
@@ -158,6 +159,8 @@ class GaussianGestureModels:
     weights: np.ndarray
     thresholds: tuple[float, ...] | None = None
     meta: dict = field(default_factory=dict, compare=False)
+    #: The posture commands (:mod:`sw_hps.posture_commands`; None: none).
+    postures: dict | None = None
 
     emission = "gaussian"
 
@@ -192,6 +195,7 @@ class GaussianGestureModels:
         object.__setattr__(self, "resample", int(self.resample))
         object.__setattr__(self, "weights", weights)
         object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
+        object.__setattr__(self, "postures", check_posture_commands(self.postures))
         # All components stacked once, for one vectorised forward pass.
         stay = np.stack([c.stay for c in flat])
         with np.errstate(divide="ignore"):
@@ -251,7 +255,7 @@ class GaussianGestureModels:
                 "rejection": None if self.thresholds is None else
                 {"statistic": "mean log-likelihood per feature vector",
                  "thresholds": list(self.thresholds)},
-                "spotting": None,
+                "spotting": None, "postures": self.postures,
                 "meta": self.meta}
 
     @classmethod
@@ -289,4 +293,5 @@ class GaussianGestureModels:
             raise ValueError("rejection must be null or an object with thresholds")
         return cls(tuple(names), tuple(groups), feats.get("resample"), feats.get("weights"),
                    None if rejection is None else rejection["thresholds"],
-                   dict(data.get("meta") or {}))
+                   dict(data.get("meta") or {}),
+                   data.get("postures") if data.get("version", 0) >= 4 else None)

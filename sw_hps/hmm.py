@@ -6,15 +6,18 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this
 project. Training lives in :mod:`recognition`; both read and write the same
 JSON model file through :func:`load_models` / :func:`save_models`.
 
-Model file (JSON), version 3::
+Model file (JSON), version 4::
 
-    {"format": "stereogest-hmm", "version": 3,
+    {"format": "stereogest-hmm", "version": 4,
      "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
      "spotting": null | {"threshold_bias": b, "end_delay": n, "min_symbols": k,
                           "step": s, "max_gap": g, "max_gap_share": r},
                                          # max_gap, max_gap_share optional (0)
+     "postures": null | {"command": [...], "share": s, "stop": "fist",
+                         "stop_frames": n, "power": {...}},
+                                         # sw_hps.posture_commands; optional
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,
@@ -23,8 +26,8 @@ Model file (JSON), version 3::
      "features": {"names": [...], "resample": 64, "weights": [...]},
      "models": [{"components": [{"stay": [...], "mean": [[...]], "var": [[...]]}, ...]}, ...]}
 
-Version 1 files (discrete, no ``emission`` and no ``rejection``) and version 2
-files (no ``spotting``) still load. ``spotting`` holds the options of the
+Version 1 files (discrete, no ``emission`` and no ``rejection``), version 2
+files (no ``spotting``) and version 3 files (no ``postures``) still load. ``spotting`` holds the options of the
 continuous recogniser (:mod:`sw_hps.continuous`, discrete models only; null:
 its defaults).
 Discrete: one model per class; each has N states (N may differ between
@@ -45,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from .continuous import check_spotting
+from .posture_commands import check_posture_commands
 # The file's identity lives in a standard-library module: the bundle checks it
 # on a machine without numpy.
 from .model_format import (EMISSIONS, MODEL_FORMAT, MODEL_VERSION, MODEL_VERSIONS, check_header,
@@ -220,6 +224,8 @@ class GestureModels:
     thresholds: tuple[float, ...] | None = None
     #: Options of the continuous recogniser (None: its defaults).
     spotting: dict | None = None
+    #: The posture commands (:mod:`sw_hps.posture_commands`; None: none).
+    postures: dict | None = None
 
     emission = "discrete"
 
@@ -234,6 +240,7 @@ class GestureModels:
         object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
         if self.spotting is not None:
             object.__setattr__(self, "spotting", check_spotting(self.spotting))
+        object.__setattr__(self, "postures", check_posture_commands(self.postures))
         ForwardStream(self.models)  # checks the symbol counts agree
 
     @property
@@ -268,7 +275,7 @@ class GestureModels:
                 "rejection": None if self.thresholds is None else
                 {"statistic": "mean log-likelihood per symbol",
                  "thresholds": list(self.thresholds)},
-                "spotting": self.spotting,
+                "spotting": self.spotting, "postures": self.postures,
                 "meta": self.meta}
 
     @classmethod
@@ -302,7 +309,8 @@ class GestureModels:
                                       or "thresholds" not in rejection):
             raise ValueError("rejection must be null or an object with thresholds")
         result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
-                     None if rejection is None else rejection["thresholds"], spotting)
+                     None if rejection is None else rejection["thresholds"], spotting,
+                     data.get("postures") if version >= 4 else None)
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")

@@ -15,10 +15,11 @@ __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "chec
            "check_structure", "read_json", "read_structure"]
 
 MODEL_FORMAT = "stereogest-hmm"
-#: Version written; 1 (discrete, no rejection) and 2 (no spotting) are still read.
-MODEL_VERSION = 3
+#: Version written; 1 (discrete, no rejection), 2 (no spotting) and 3 (no
+#: postures) are still read.
+MODEL_VERSION = 4
 #: Versions read.
-MODEL_VERSIONS = (1, 2, 3)
+MODEL_VERSIONS = (1, 2, 3, 4)
 #: Emission models a model file may hold.
 EMISSIONS = ("discrete", "gaussian")
 

@@ -201,20 +201,22 @@ class PostureTracker:
 
     def poll(self, frame=None):
         """Read the latest record, if new, as frame ``frame``'s posture (None:
-        the record's own number)."""
+        the record's own number). Returns the frame it was kept for, or None
+        (no new record, or a fault)."""
         try:
             record = self.reader.read()
             if record is None:
-                return
+                return None
             if frame is None:
                 frame = self.reader.frame
             name = record_posture(self.model, record[1])
         except Exception:
             self.errors += 1
-            return
+            return None
         self.last = self.names[frame] = name
         for old in [f for f in self.names if f <= frame - self.keep]:
             del self.names[old]
+        return frame
 
     def held(self, first, last):
         """``(name, share)`` over the frames ``first`` .. ``last`` (frames without

@@ -531,8 +531,9 @@ def _write(link, data: bytes):
         return False, f"link raised {type(exc).__name__}: {exc}"
 
 
-def deliver_gesture(link, gesture) -> Delivery:
-    """Send a gesture's telegram over ``link`` and say what became of it.
+def deliver_gesture(link, gesture, power=None) -> Delivery:
+    """Send a gesture's telegram (with ``power``, :func:`sw_hps.telegram.telegram`)
+    over ``link`` and say what became of it.
 
     A :class:`RobotChannel` (anything with ``send_gesture``) decides itself;
     any other link (``send(bytes) -> bool``) gives :data:`UNCONFIRMED` when it
@@ -541,12 +542,12 @@ def deliver_gesture(link, gesture) -> Delivery:
     send_gesture = getattr(link, "send_gesture", None)
     if send_gesture is not None:
         try:
-            return send_gesture(gesture)
+            return send_gesture(gesture) if power is None else send_gesture(gesture, power)
         except Exception as exc:
             log.error("robot link raised %s: %s", type(exc).__name__, exc)
-            return Delivery(telegram(gesture), FAILED, False,
+            return Delivery(telegram(gesture, power=power), FAILED, False,
                             f"link raised {type(exc).__name__}: {exc}")
-    data = telegram(gesture)
+    data = telegram(gesture, power=power)
     written, reason = _write(link, data)
     if written:
         return Delivery(data, UNCONFIRMED, True, "this link cannot confirm")
@@ -743,11 +744,12 @@ class RobotChannel:
         self._last_write = self._clock()
         return written
 
-    def send_gesture(self, gesture) -> Delivery:
-        """Send a gesture's telegram; the :class:`Delivery` says what became of it."""
+    def send_gesture(self, gesture, power=None) -> Delivery:
+        """Send a gesture's telegram (with ``power``); the :class:`Delivery` says
+        what became of it."""
         self._before_send()
         asks = self.ack_timeout is not None
-        data = telegram(gesture, reply=asks)
+        data = telegram(gesture, reply=asks, power=power)
         written, reason = _write(self.link, data)
         self._last_write = self._clock()
         if not written:

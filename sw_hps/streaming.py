@@ -20,6 +20,12 @@ gesture boundaries itself:
   may still win), once, and refuses what no gesture explains;
 * a frame without a hand flushes: what is pending is named and the paths start
   afresh (the hand left the view);
+* with the model file's ``postures`` entry (:mod:`sw_hps.posture_commands`)
+  and a posture per frame, a gesture is a command only if the hand held a
+  command posture over enough of it (its telegram then carries the power of
+  that posture), and the stop posture held for ``stop_frames`` records sends
+  the stop telegram at once: what is pending is forgotten, and nothing is
+  named until the hand leaves the stop posture;
 * a named gesture's NXT telegram goes to the robot at once.
 
 The hardware's flag is not used: it is the thesis' rest-gesture-rest
@@ -58,10 +64,12 @@ from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFa
 from .continuous import ContinuousRecogniser, Detection, step_pixels
 from .fifo import FRAC_BITS, FRAME_WIDTH
 from .orientation import DistanceSymbols
+from .posture_commands import PostureCommands
 from .robot import FAILED, deliver_gesture
 from .telegram import GESTURE_NAMES, hex_bytes
 
-__all__ = ["StreamingApp", "StreamSpotter", "SpottedGesture", "check_streaming_models"]
+__all__ = ["StreamingApp", "StreamSpotter", "SpottedGesture", "Command",
+           "check_streaming_models"]
 
 log = logging.getLogger(__name__)
 
@@ -81,6 +89,27 @@ def check_streaming_models(models):
                          f"entry ('stereogest train --continuous'), got {models.emission} "
                          "models without one")
     return models
+
+
+@dataclass(frozen=True)
+class Command:
+    """What :class:`StreamSpotter` names: a gesture (the fields of
+    :class:`~sw_hps.continuous.Detection`) that commands, or a stop by posture
+    (``by_posture``: ``first`` is the first frame of the stop posture,
+    ``last`` and ``named_at`` the frame it fired at, ``score`` 0)."""
+    class_index: int
+    name: str
+    first: int
+    last: int
+    score: float
+    named_at: int
+    #: the command posture held over it and the share of its frames in a
+    #: command posture (None without posture commands)
+    posture: str | None = None
+    posture_share: float | None = None
+    #: motor power for the telegram (None: none)
+    power: int | None = None
+    by_posture: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,25 +133,37 @@ class SpottedGesture:
     #: without a posture model)
     posture: str | None = None
     posture_share: float | None = None
+    #: the telegram's motor power (None: none); named by the stop posture
+    power: int | None = None
+    by_posture: bool = False
 
     def to_dict(self) -> dict:
         return {"name": self.class_name, "first": self.first, "last": self.last,
                 "named_at": self.named_at, "score": round(self.score, 3),
                 "telegram": hex_bytes(self.telegram) if self.telegram is not None else None,
                 "sent": self.sent, "delivery": self.delivery, "posture": self.posture,
-                "posture_share": self.posture_share}
+                "posture_share": self.posture_share, "power": self.power,
+                "by_posture": self.by_posture}
 
 
 class StreamSpotter:
-    """Records to named gestures, one record (frame) at a time: the part of
+    """Records to commands, one record (frame) at a time: the part of
     :class:`StreamingApp` that does not touch the bus (the live view and the
     batch commands run it on the golden model's records).
 
     Parameters
     ----------
     models : discrete models with a ``spotting`` entry
+        With a ``postures`` entry, each record's posture (:meth:`take`) gates,
+        stops and scales the commands (module docstring).
     frame_width : int
         Width of the frames (scales ``step``).
+
+    Attributes
+    ----------
+    commands : sw_hps.posture_commands.PostureCommands or None
+    refused : int
+        Gestures spotted that were no command (not in a command posture).
     """
 
     def __init__(self, models, frame_width: int = FRAME_WIDTH):
@@ -132,6 +173,11 @@ class StreamSpotter:
             raise ValueError(f"frame_width must be an integer in [8, 4096], got {frame_width!r}")
         self.recogniser = ContinuousRecogniser(models, **models.spotting)
         self.symbols = DistanceSymbols(step_pixels(models.spotting["step"], frame_width))
+        postures = getattr(models, "postures", None)
+        self.commands = PostureCommands(postures) if postures is not None else None
+        self._stop_index = list(models.class_names).index("stop") \
+            if "stop" in models.class_names else -1
+        self.refused = 0
         self.frames = 0              # records taken since the last reset
 
     @property
@@ -142,23 +188,52 @@ class StreamSpotter:
         """A new stream (frames count from 0 again)."""
         self.recogniser.reset()
         self.symbols.reset()
+        if self.commands is not None:
+            self.commands.reset()
         self.frames = 0
 
-    def take(self, x_fixed: int, y_fixed: int, present: bool) -> list[Detection]:
-        """One frame's record (10.8 smoothed position, hand present); the
-        gestures named at it."""
+    def take(self, x_fixed: int, y_fixed: int, present: bool, posture=None) -> list[Command]:
+        """One frame's record (10.8 smoothed position, hand present) and its
+        posture (None: no hand, refused or unknown); the commands named at it."""
         frame = self.frames
         self.frames += 1
+        if self.commands is not None:
+            if self.commands.take(frame, posture):
+                self.recogniser.reset()       # the stop overrides what is in progress
+                self.symbols.reset()
+                return [Command(self._stop_index, "stop", self.commands.stop_started, frame,
+                                0.0, frame, posture, None, None, True)]
+            if self.commands.latched:         # nothing until the hand leaves the stop
+                self.recogniser.reset()
+                self.symbols.reset()
+                return []
         if present:
             symbol = self.symbols.push((int(x_fixed) >> FRAC_BITS, int(y_fixed) >> FRAC_BITS))
-            return self.recogniser.step(frame, symbol)
+            return self._judged(self.recogniser.step(frame, symbol))
         self.symbols.reset()          # the hand left: name what is pending
-        return self.recogniser.flush(frame)
+        return self._judged(self.recogniser.flush(frame))
 
-    def flush(self) -> list[Detection]:
+    def flush(self) -> list[Command]:
         """The stream ends or breaks: name what is pending; paths start afresh."""
         self.symbols.reset()
-        return self.recogniser.flush(self.frames - 1)
+        return self._judged(self.recogniser.flush(self.frames - 1))
+
+    def _judged(self, detections: list[Detection]) -> list[Command]:
+        out = []
+        for d in detections:
+            if self.commands is None:
+                out.append(Command(d.class_index, d.name, d.first, d.last, d.score, d.named_at))
+                continue
+            verdict = self.commands.judge(d.first, d.last)
+            if not verdict.commands:
+                self.refused += 1
+                log.info("spotted %s (frames %d-%d) is no command: %.0f %% of its frames in a "
+                         "command posture (%s held)", d.name, d.first, d.last,
+                         100 * verdict.share, verdict.posture or "none")
+                continue
+            out.append(Command(d.class_index, d.name, d.first, d.last, d.score, d.named_at,
+                               verdict.posture, verdict.share, verdict.power))
+        return out
 
 
 class StreamingApp:
@@ -200,6 +275,9 @@ class StreamingApp:
                  max_fault_interval: float = MAX_FAULT_INTERVAL, posture=None):
         self.spotter = StreamSpotter(models, frame_width)
         self.posture = posture
+        if self.spotter.commands is not None and posture is None:
+            raise ValueError("the model file's postures entry needs a posture tracker "
+                             "(--posture-model)")
         if not (isinstance(poll_interval, (int, float)) and 0 < poll_interval <= 1):
             raise ValueError(f"poll_interval must be in (0, 1] seconds, got {poll_interval!r}")
         self.models, self.fifo, self.link = models, fifo, link
@@ -363,33 +441,41 @@ class StreamingApp:
         if not available:
             self._nap(self.poll_interval)
             return
-        named = []
-        for _ in range(available):
-            x, y, _flag, present = self.fifo.pop_record()
-            named += self.spotter.take(x, y, present)
+        records = [self.fifo.pop_record() for _ in range(available)]
+        first = self.spotter.frames
         if self.posture is not None:      # the latest record: the last frame popped
-            self.posture.poll(self.spotter.frames - 1)
-        for detection in named:
-            self._send(detection)
+            self.posture.poll(first + len(records) - 1)
+        named = []
+        for k, (x, y, _flag, present) in enumerate(records):
+            posture = self.posture.names.get(first + k) if self.posture is not None else None
+            named += self.spotter.take(x, y, present, posture)
+        for command in named:
+            self._send(command)
 
-    def _send(self, detection: Detection) -> None:
-        name = detection.name
+    def _send(self, command: Command) -> None:
+        name = command.name
         data, sent, delivery = None, False, None
         if name in GESTURE_NAMES:
-            outcome = deliver_gesture(self.link, name)      # never raises
+            outcome = deliver_gesture(self.link, name, command.power)      # never raises
             data, sent, delivery = outcome.telegram, outcome.written, outcome.status
             if outcome.status == FAILED:
                 log.warning("telegram %s for %r %s", hex_bytes(data), name, outcome.describe())
         else:
             log.warning("class %r is not one of the robot's gestures; nothing sent", name)
-        posture, share = self.posture.held(detection.first, detection.last) \
-            if self.posture is not None else (None, None)
-        result = SpottedGesture(detection.class_index, name, detection.first, detection.last,
-                                detection.named_at, detection.score, data, sent, delivery,
-                                posture, share)
+        if command.posture_share is not None or command.by_posture:
+            posture, share = command.posture, command.posture_share
+        elif self.posture is not None:
+            posture, share = self.posture.held(command.first, command.last)
+        else:
+            posture, share = None, None
+        result = SpottedGesture(command.class_index, name, command.first, command.last,
+                                command.named_at, command.score, data, sent, delivery,
+                                posture, share, command.power, command.by_posture)
         self.results.append(result)
-        log.info("spotted %s (frames %d-%d, named at %d, score %.2f)%s", name,
+        what = "stop posture held" if command.by_posture else "spotted"
+        log.info("%s %s (frames %d-%d, named at %d, score %.2f%s)%s", what, name,
                  result.first, result.last, result.named_at, result.score,
+                 "" if command.power is None else f", power {command.power}",
                  f", telegram {hex_bytes(data)} {outcome.describe()}" if sent else "")
         if self.on_result is not None:
             try:

@@ -17,6 +17,11 @@ The thesis' Table 15 is not available to this project; the mapping below is ours
 An NXT program reading mailbox 0 performs the action (it is not part of this
 repository).
 
+With a power (a model file whose ``postures`` entry has a power table,
+:mod:`sw_hps.posture_commands`) the message is the digit and the motor power
+as three ASCII digits (0-100): ``09 00 80 09 00 05 33 30 37 35 00`` is "right
+at power 75"; a program reading the first character alone still acts.
+
 Acknowledged telegrams (``--robot-ack``)
 ---------------------------------------
 ``telegram(gesture, reply=True)`` sets the first body byte to 0x00 (direct
@@ -52,13 +57,15 @@ from soc.hps_interface import GESTURE_NAMES
 
 __all__ = ["GESTURE_NAMES", "ROBOT_ACTIONS", "NXT_DIRECT_NO_REPLY", "NXT_DIRECT_REPLY",
            "NXT_REPLY", "NXT_MESSAGEWRITE", "NXT_INBOX", "NXT_STATUS", "MESSAGEWRITE_REPLY",
-           "telegram", "find_reply", "status_text", "gesture_index", "hex_bytes"]
+           "POWER_RANGE", "telegram", "find_reply", "status_text", "gesture_index", "hex_bytes"]
 
 #: Action the NXT program performs for each gesture (our Table 15).
 ROBOT_ACTIONS = ("drive forward", "drive backward", "turn right (pivot), then forward",
                  "turn left (pivot), then forward", "spin clockwise in place",
                  "spin counter-clockwise in place", "stop both motors")
 
+#: Motor power a telegram may carry (the NXT's output power is at most 100).
+POWER_RANGE = (0, 100)
 NXT_DIRECT_NO_REPLY = 0x80
 NXT_DIRECT_REPLY = 0x00
 #: First byte of the brick's answer to a command sent with "reply required".
@@ -97,7 +104,7 @@ def gesture_index(gesture) -> int:
     return int(gesture)
 
 
-def telegram(gesture, reply: bool = False) -> bytes:
+def telegram(gesture, reply: bool = False, power=None) -> bytes:
     """Bluetooth-framed NXT MessageWrite telegram for a gesture (see the table above).
 
     Parameters
@@ -106,6 +113,10 @@ def telegram(gesture, reply: bool = False) -> bytes:
         A name of :data:`GESTURE_NAMES` or its index.
     reply : bool
         Ask the brick for a reply (first body byte 0x00 instead of 0x80).
+    power : int in POWER_RANGE, optional
+        Motor power for the action (:mod:`sw_hps.posture_commands`): three ASCII
+        digits after the class digit (``"3075"``: right at power 75); None: the
+        class digit alone.
 
     Returns
     -------
@@ -113,7 +124,14 @@ def telegram(gesture, reply: bool = False) -> bytes:
         E.g. ``06 00 80 09 00 02 31 00`` for ``"forward"`` (``06 00 00 09 00 02
         31 00`` with ``reply=True``).
     """
-    message = str(gesture_index(gesture) + 1).encode("ascii")
+    message = str(gesture_index(gesture) + 1)
+    if power is not None:
+        lo, hi = POWER_RANGE
+        if isinstance(power, bool) or not isinstance(power, int) or not lo <= power <= hi:
+            raise ValueError(f"power must be an integer in [{lo}, {hi}] (NXT motor power), "
+                             f"got {power!r}")
+        message += "%03d" % power
+    message = message.encode("ascii")
     kind = NXT_DIRECT_REPLY if reply else NXT_DIRECT_NO_REPLY
     body = bytes([kind, NXT_MESSAGEWRITE, NXT_INBOX, len(message) + 1]) + message + b"\x00"
     return struct.pack("<H", len(body)) + body

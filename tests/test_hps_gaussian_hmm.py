@@ -246,7 +246,7 @@ def test_model_file_round_trip_keeps_every_score(tmp_path):
     path = tmp_path / "gauss.json"
     save_models(models, path)
     data = json.loads(path.read_text())
-    assert (data["version"], data["emission"]) == (3, "gaussian")
+    assert (data["version"], data["emission"]) == (4, "gaussian")
     assert data["rejection"]["thresholds"] == [-3.0, -2.5, -4.0]
     assert data["features"]["names"] == list(FEATURE_NAMES)
     loaded = load_models(path)
@@ -295,12 +295,12 @@ def test_version_1_discrete_file_still_loads(tmp_path):
     # Version 1 has no emission field: even a stray one is ignored (always discrete).
     path.write_text(json.dumps({**discrete_v1(), "emission": "gaussian"}))
     assert load_models(path).emission == "discrete"
-    # Written back, it is a version 3 discrete file with the same scores.
-    save_models(models, tmp_path / "v3.json")
-    data = json.loads((tmp_path / "v3.json").read_text())
-    assert (data["version"], data["emission"], data["rejection"], data["spotting"]) == \
-        (3, "discrete", None, None)
-    assert np.array_equal(load_models(tmp_path / "v3.json").scores([3, 3, 3]), scores)
+    # Written back, it is a version 4 discrete file with the same scores.
+    save_models(models, tmp_path / "v4.json")
+    data = json.loads((tmp_path / "v4.json").read_text())
+    assert (data["version"], data["emission"], data["rejection"], data["spotting"],
+            data["postures"]) == (4, "discrete", None, None, None)
+    assert np.array_equal(load_models(tmp_path / "v4.json").scores([3, 3, 3]), scores)
     # A version 2 file (no spotting) loads too.
     path.write_text(json.dumps({**discrete_v1(), "version": 2, "emission": "discrete",
                                 "rejection": None}))
@@ -348,7 +348,24 @@ def gaussian_dict(**change):
     ({**discrete_v1(), "version": 3, "emission": "discrete", "spotting": [1]},
      ["spotting must be null or an object"]),
     (gaussian_dict(version=3, spotting={"end_delay": 4}), ["spotting must be null", "gaussian"]),
-    ({**discrete_v1(), "version": 4}, ["version must be one of [1, 2, 3]"]),
+    ({**discrete_v1(), "version": 5}, ["version must be one of [1, 2, 3, 4]"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete", "postures": []},
+     ["postures must be null or an object"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete", "postures": {"fingers": 1}},
+     ["postures: unknown key", "fingers"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete",
+      "postures": {"command": ["asl2"], "share": 1.5}}, ["postures share", "[0, 1]"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete",
+      "postures": {"command": ["asl2"], "power": {"asl2": 101}}},
+     ["postures power 'asl2'", "[0, 100]", "NXT motor power"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete",
+      "postures": {"command": ["asl2", "asl3"], "power": {"asl2": 50}}},
+     ["postures power has no level", "asl3"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete",
+      "postures": {"command": ["fist"], "stop": "fist"}}, ["postures stop 'fist'"]),
+    ({**discrete_v1(), "version": 4, "emission": "discrete",
+      "postures": {"stop": "fist", "stop_frames": 0}}, ["postures stop_frames", "[1, 30]"]),
+    (gaussian_dict(version=4, postures={"command": "asl2"}), ["postures command", "list"]),
 ])
 def test_bad_model_file_is_a_one_line_error_naming_the_problem(tmp_path, data, words):
     path = tmp_path / "bad.json"
