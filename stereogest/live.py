@@ -19,6 +19,7 @@ import json
 import threading
 import time
 from http import HTTPStatus
+from types import SimpleNamespace
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
@@ -59,6 +60,16 @@ class LiveSession:
         if spotting == "continuous":
             from sw_hps.streaming import StreamSpotter
             self._spotter = StreamSpotter(models, 640 if width is None else width)
+        # thesis spotting: the posture commands the board's loop applies (the
+        # streaming spotter applies them itself)
+        self._commands = None
+        self._stop_at = -1         # the frame the last stop by posture fired at
+        if getattr(models, "postures", None) is not None:
+            if posture_model is None:
+                raise ValueError("the model file's postures entry needs a posture model")
+            if spotting == "thesis":
+                from sw_hps.posture_commands import PostureCommands
+                self._commands = PostureCommands(models.postures)
         self.lock = threading.Lock()
         self.frames = 0
         self.recognised: list[dict] = []
@@ -97,12 +108,15 @@ class LiveSession:
             del self._cents[:drop], self._areas[:drop], self._postures[:drop]
             self._first += drop
         n = self.frames
+        if self._commands is not None and self._commands.take(n, self._postures[-1]):
+            self._stopped(n, self._commands.stop_started)
         traj = track(np.array(self._cents, np.int64), np.array(self._areas, np.int64), p)
         self._traj = traj
         flag = bool(traj.flag[-1])
         if self._spotter is not None:     # every frame's record, as the board takes it
             x_fixed, y_fixed = (int(v) for v in traj.smoothed[-1])
-            self._name(n, self._spotter.take(x_fixed, y_fixed, bool(stages.centroid.area)))
+            self._name(n, self._spotter.take(x_fixed, y_fixed, bool(stages.centroid.area),
+                                             self._postures[-1]))
         else:
             ended = self._was_flagged and not flag
             self._was_flagged = flag
@@ -160,10 +174,23 @@ class LiveSession:
         if not results:
             return
         last = results[-1]
+        entry = None
+        if last["outcome"] == "recognised":
+            entry = self._with_posture({key: last[key] for key in (
+                "name", "first", "last", "telegram", "score")})
+            if self._commands is not None:     # as the board's S3 judges it
+                verdict = self._commands.judge(last["first"], last["last"])
+                if not verdict.commands or last["first"] <= self._stop_at:
+                    return
+                from sw_hps.telegram import GESTURE_NAMES, telegram
+                entry.update(posture=verdict.posture, posture_share=verdict.share,
+                             power=verdict.power, telegram=telegram(
+                                 last["name"], power=verdict.power).hex(" ")
+                             if last["name"] in GESTURE_NAMES else None)
+                last = dict(last, telegram=entry["telegram"])
         with self.lock:
-            if last["outcome"] == "recognised":
-                self.gestures = self.gestures + [self._with_posture({key: last[key] for key in (
-                    "name", "first", "last", "telegram", "score")})]
+            if entry is not None:
+                self.gestures = self.gestures + [entry]
                 self.state["gestures"] = self.gestures
                 self.state.update(recognised=last["name"], telegram=last["telegram"],
                                   recognised_at=n)
@@ -171,13 +198,26 @@ class LiveSession:
                 {"frame": n, "recognised": last["name"], "telegram": last["telegram"],
                  "first": last["first"], "last": last["last"]}])[-10:]
 
+    def _stopped(self, n: int, first: int) -> None:
+        """Thesis spotting: the stop posture held since ``first`` stops at ``n``
+        (a gesture in progress is dropped, as the board drops it)."""
+        self._stop_at = n
+        self._name(n, [SimpleNamespace(name="stop", first=first, last=n, score=0.0,
+                                       posture=self._commands.options["stop"], power=None,
+                                       posture_share=None, by_posture=True)])
+
     def _name(self, n: int, detections) -> None:
-        """Continuous spotting: the gestures named at frame ``n``."""
+        """The commands named at frame ``n`` (continuous spotting's, or a stop)."""
         from sw_hps.telegram import GESTURE_NAMES, telegram
         for d in detections:
-            code = telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None
-            entry = self._with_posture({"name": d.name, "first": d.first, "last": d.last,
-                                        "telegram": code, "score": round(float(d.score), 3)})
+            code = telegram(d.name, power=d.power).hex(" ") if d.name in GESTURE_NAMES else None
+            entry = {"name": d.name, "first": d.first, "last": d.last, "telegram": code,
+                     "score": round(float(d.score), 3)}
+            if getattr(d, "posture_share", None) is not None or getattr(d, "by_posture", False):
+                entry.update(posture=d.posture, posture_share=d.posture_share, power=d.power,
+                             by_posture=d.by_posture)
+            else:
+                entry = self._with_posture(entry)
             with self.lock:
                 self.gestures = self.gestures + [entry]
                 self.state["gestures"] = self.gestures
@@ -286,7 +326,9 @@ async function tick() {{
     if (s.gestures.length)
       document.getElementById('commands').textContent = s.gestures.map(
         g => g.name + ' (frames ' + g.first + '-' + g.last
-             + (g.posture ? ', ' + g.posture : '') + ')').join(', ');
+             + (g.posture ? ', ' + g.posture : '')
+             + (g.power !== undefined && g.power !== null ? ', power ' + g.power : '')
+             + (g.by_posture ? ', stop posture' : '') + ')').join(', ');
     if (s.error) document.getElementById('status').textContent = 'stopped: ' + s.error;
   }} catch (e) {{}}
   setTimeout(tick, 100);

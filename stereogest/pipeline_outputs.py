@@ -144,6 +144,9 @@ def add_postures(entries: list[dict], postures: list, first_frame: int = 0) -> l
     from sw_hps.posture import held_posture
     out = []
     for entry in entries:
+        if "posture" in entry:           # named by the posture commands already
+            out.append(entry)
+            continue
         first, last = entry.get("first"), entry.get("last")
         span = postures[first - first_frame:last - first_frame + 1] \
             if first is not None and last is not None else []
@@ -169,6 +172,31 @@ def load_board_models(path=None, spotting: str = "thesis"):
         raise ValueError(f"{path}: {exc}") from None
 
 
+def load_models_with_postures(path=None, spotting: str = "thesis", posture_path=None):
+    """:func:`load_board_models` and :func:`load_posture_model`, refused with a
+    ``ValueError`` (as the board refuses them) when the model file's
+    ``postures`` entry names a posture the posture model does not know:
+    ``(models, posture_model)``."""
+    from sw_hps.posture_commands import check_posture_classes
+    models = load_board_models(path, spotting)
+    posture_model = load_posture_model(posture_path)
+    where = f"{shipped_model_path(spotting) if path is None else path}: postures"
+    check_posture_classes(models.postures, posture_model.class_names, where=where)
+    return models, posture_model
+
+
+def spot(models, posture_model, trajectory, frame_width: int, spotting: str) -> list[dict]:
+    """The board application's results on a trajectory in a spotting mode
+    (:func:`stream_results` or :func:`board_results`), each frame's posture
+    by ``posture_model`` given to it as the posture slave gives it."""
+    if spotting == "continuous":
+        postures = frame_postures(posture_model, trajectory) if posture_model is not None \
+            else None
+        return stream_results(models, trajectory, frame_width, postures=postures)
+    needs = getattr(models, "postures", None) is not None
+    return board_results(models, trajectory, posture_model=posture_model if needs else None)
+
+
 def flagged_spans(flag) -> list[tuple[int, int]]:
     """First and last frame of every run of flagged frames, in order."""
     flag = np.asarray(flag, bool).astype(np.int8)
@@ -177,13 +205,20 @@ def flagged_spans(flag) -> list[tuple[int, int]]:
                     (np.flatnonzero(edges == -1) - 1).tolist()))
 
 
-def board_results(models, trajectory, first_frame: int = 0) -> list[dict]:
+def board_results(models, trajectory, first_frame: int = 0, posture_model=None) -> list[dict]:
     """The board application on a trajectory (a simulated FIFO; a gesture
     still flagged at the trajectory's end ends there, as the FIFO then holds
-    still frames): :func:`gesture_entries` of what it finished."""
+    still frames): :func:`gesture_entries` of what it finished. With
+    ``posture_model`` a simulated posture slave gives it each frame's posture
+    record as the core does (needed by models with a ``postures`` entry)."""
     from sw_hps.simulated import run_on_trajectory
+    records = trajectory.posture if posture_model is not None else None
+    if posture_model is not None and (records is None or not len(records)):
+        raise ValueError("the trajectory has no posture records (the pipeline ran without "
+                         "its posture path)")
     board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
-                              trajectory.flag, pixels=False)
+                              trajectory.flag, pixels=False, posture_records=records,
+                              posture_model=posture_model)
     return gesture_entries([r.to_dict() for r in board.results], trajectory.flag, first_frame)
 
 
@@ -195,39 +230,58 @@ def gesture_entries(results: list[dict], flag, first_frame: int = 0) -> list[dic
     ``first_frame``), ``telegram`` (hex, None unless sent) and ``score`` (the
     named class' log-likelihood, None unless recognised)."""
     spans = flagged_spans(flag)
-    # the application finishes one gesture per flagged run, in order
-    if len(spans) != len(results):
-        spans = [(None, None)] * len(results)
+    # the application finishes one gesture per flagged run, in order (a stop by
+    # posture is no flagged run)
+    gestures = [r for r in results if not r.get("by_posture")]
+    if len(spans) != len(gestures):
+        spans = [(None, None)] * len(gestures)
+    spans = iter(spans)
     out = []
-    for (first, last), r in zip(spans, results):
+    for r in results:
+        first, last = (None, None) if r.get("by_posture") else next(spans)
         recognised = r["outcome"] == "recognised"
-        score = r["scores"][r["class_index"]] if recognised else None
+        score = r["scores"][r["class_index"]] if recognised and r["scores"] else None
         out.append({
             "outcome": r["outcome"], "name": r["class_name"] if recognised else None,
             "first": None if first is None else first + first_frame,
             "last": None if last is None else last + first_frame,
             "telegram": r["telegram"] if r["sent"] else None,
-            "score": None if score is None else round(float(score), 3)})
+            "score": None if score is None else round(float(score), 3),
+            **{key: r[key] for key in ("posture", "posture_share", "power", "by_posture")
+               if r.get(key) not in (None, False)}})
     return out
 
 
-def stream_results(models, trajectory, frame_width: int, first_frame: int = 0) -> list[dict]:
+def stream_results(models, trajectory, frame_width: int, first_frame: int = 0,
+                   postures=None) -> list[dict]:
     """The board application's continuous spotting (``--spotting continuous``:
     :class:`sw_hps.streaming.StreamSpotter`, what it runs on each record of the
     FIFO's streaming mode) on a trajectory's records, the source's end
     flushing: entries like :func:`board_results` (every one recognised; the
-    threshold model refuses the rest)."""
+    threshold model refuses the rest). ``postures``: each frame's posture
+    (:func:`frame_postures`), which models with a ``postures`` entry need;
+    their entries carry ``posture``, ``posture_share``, ``power`` and
+    ``by_posture`` (a stop by posture)."""
     from sw_hps.streaming import StreamSpotter
     from sw_hps.telegram import GESTURE_NAMES, telegram
     spotter = StreamSpotter(models, frame_width)
+    if postures is None:
+        if spotter.commands is not None:
+            raise ValueError("the model file's postures entry needs each frame's posture "
+                             "(a posture model)")
+        postures = [None] * len(trajectory.area)
     named = []
-    for (x, y), area in zip(trajectory.smoothed, trajectory.area):
-        named += spotter.take(int(x), int(y), bool(area))
+    for (x, y), area, posture in zip(trajectory.smoothed, trajectory.area, postures):
+        named += spotter.take(int(x), int(y), bool(area), posture)
     named += spotter.flush()
+    posture_keys = spotter.commands is not None
     return [{"outcome": "recognised", "name": d.name, "first": d.first + first_frame,
              "last": d.last + first_frame, "named_at": d.named_at + first_frame,
-             "telegram": telegram(d.name).hex(" ") if d.name in GESTURE_NAMES else None,
-             "score": round(float(d.score), 3)} for d in named]
+             "telegram": telegram(d.name, power=d.power).hex(" ")
+             if d.name in GESTURE_NAMES else None,
+             "score": round(float(d.score), 3),
+             **({"posture": d.posture, "posture_share": d.posture_share, "power": d.power,
+                 "by_posture": d.by_posture} if posture_keys else {})} for d in named]
 
 
 def sequence_score(results: list[dict], sequence) -> dict:
@@ -255,7 +309,7 @@ def recognised_gestures(results: list[dict]) -> list[dict]:
     """The recognised entries of :func:`board_results` as ``--json`` lists
     them: ``name``, ``first``, ``last``, ``telegram``, ``score``."""
     return [{key: r[key] for key in ("name", "first", "last", "telegram", "score")
-             + tuple(k for k in ("posture", "posture_share") if k in r)}
+             + tuple(k for k in ("posture", "posture_share", "power", "by_posture") if k in r)}
             for r in results if r["outcome"] == "recognised"]
 
 

@@ -564,6 +564,23 @@ def read_trajectory_csv(path):
         np.array(flags, dtype=bool)
 
 
+class PostureFifoPeripheral(SimulatedFifoPeripheral):
+    """A simulated FIFO whose every video frame also brings ``slave`` (a
+    :class:`SimulatedPostureSlave`) that frame's posture record, as the core's
+    descriptor does (``records``: one list of words per queued frame; frames
+    after the last repeat it, a still hand)."""
+
+    def __init__(self, slave, records, **options):
+        super().__init__(**options)
+        if not len(records):
+            raise ValueError("records must hold a posture record per frame")
+        self.slave, self.records = slave, list(records)
+
+    def push_frame(self, x_fixed: int, y_fixed: int, flag, present=True) -> None:
+        super().push_frame(x_fixed, y_fixed, flag, present)
+        self.slave.push_record(self.records[min(self.frames, len(self.records)) - 1])
+
+
 class SimulatedClock:
     """Simulated time for the application: ``sleep(seconds)`` advances it, calling
     it reads it (give ``sleep=clock.sleep, clock=clock`` to :class:`GestureApp`).
@@ -639,7 +656,8 @@ def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = Tru
                         link=None, bus: SimBus | None = None, reads_per_frame: int = 1,
                         depth: int = FIFO_DEPTH,
                         sleep: Callable[[float], None] | None = None,
-                        max_iterations: int | None = None, **app_options) -> SimulationRun:
+                        max_iterations: int | None = None, posture_records=None,
+                        posture_model=None, **app_options) -> SimulationRun:
     """Wire the unmodified application to a simulated FIFO playing a trajectory.
 
     Parameters
@@ -665,6 +683,10 @@ def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = Tru
         waiting) that is also the application's ``clock``, unless ``clock`` is given.
     max_iterations : int, optional
         Safety bound on steps (default: generous, from the trajectory length).
+    posture_records, posture_model : optional
+        Each frame's posture record (words) and the posture classifier: a
+        simulated posture slave then gets each frame's record with its pair,
+        and the application a tracker of it (``posture``).
     **app_options
         Passed to :class:`GestureApp` (``min_symbols``, ``max_points``,
         ``on_result``, ...).
@@ -674,12 +696,21 @@ def simulate_trajectory(models: GestureModels, x, y, flag, *, pixels: bool = Tru
     SimulationRun
         Not yet run: call its ``run()``.
     """
-    peripheral = SimulatedFifoPeripheral(depth=depth, reads_per_frame=reads_per_frame)
+    if posture_model is not None:
+        slave = SimulatedPostureSlave()
+        peripheral = PostureFifoPeripheral(slave, posture_records, depth=depth,
+                                           reads_per_frame=reads_per_frame)
+    else:
+        peripheral = SimulatedFifoPeripheral(depth=depth, reads_per_frame=reads_per_frame)
     peripheral.queue_trajectory(x, y, flag, pixels=pixels)
     if bus is None:
         bus = SimBus(peripheral)
     else:
         bus.attach(0, peripheral)
+    if posture_model is not None:
+        from .posture import POSTURE_OFFSET, PostureReader, PostureTracker
+        bus.attach(POSTURE_OFFSET, slave)
+        app_options["posture"] = PostureTracker(PostureReader(bus), posture_model)
     link = link if link is not None else NullLink()
     if sleep is None:
         simulated = SimulatedClock()

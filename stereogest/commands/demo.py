@@ -127,7 +127,6 @@ def run(args) -> int:
     from sim.model.validation import check_int
     from sim.render import HEIGHT_RANGE, MAX_SEGMENT_FRAMES, WIDTH_RANGE
     from stereogest.commands import OutputDir, load_rectification, vga_scale_of
-    from stereogest.pipeline_outputs import load_board_models
 
     # Every option checked before anything is created or rendered.
     if args.threads is not None:
@@ -160,9 +159,9 @@ def run(args) -> int:
                              f"got {','.join(args.sequence)!r}")
         args.pause = check_range("--pause", args.pause, 0, MAX_SEGMENT_FRAMES)
     say = _say(args.quiet)
-    models = load_board_models(args.model, args.spotting)
-    from stereogest.pipeline_outputs import load_posture_model
-    posture_model = load_posture_model(args.posture_model)
+    from stereogest.pipeline_outputs import load_models_with_postures
+    models, posture_model = load_models_with_postures(args.model, args.spotting,
+                                                      args.posture_model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
@@ -182,11 +181,10 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
     from sim.images import write_png
     from sim.model.pipeline import run_clip
     from sim.render import render_clip
-    from stereogest.pipeline_outputs import (STALE, add_postures, board_results,
-                                             frame_postures, gesture_entries,
-                                             parse_frames, progress_printer,
-                                             recognised_gestures, sequence_score,
-                                             stream_results, write_outputs)
+    from stereogest.pipeline_outputs import (STALE, add_postures, frame_postures,
+                                             gesture_entries, parse_frames,
+                                             progress_printer, recognised_gestures,
+                                             sequence_score, spot, write_outputs)
 
     start = time.perf_counter()
     if args.clip is not None:
@@ -252,8 +250,7 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
 
     postures = frame_postures(posture_model, trajectory)
     continuous = args.spotting == "continuous"
-    model_results = stream_results(models, trajectory, clip.width) if continuous \
-        else board_results(models, trajectory)
+    model_results = spot(models, posture_model, trajectory, clip.width, args.spotting)
     if args.backend == "model":
         entries = model_results
         gestures = add_postures(recognised_gestures(entries), postures)

@@ -61,7 +61,6 @@ def run(args) -> int:
     from sim.footage import MAX_FRAMES, StereoSource
     from sim.model.validation import check_int
     from sim.model.pipeline import PipelineParams
-    from stereogest.pipeline_outputs import load_board_models
     from stereogest.live import LiveServer, LiveSession, run_source
 
     if (args.clip is None) == (args.left is None and args.right is None) or \
@@ -76,9 +75,9 @@ def run(args) -> int:
         check_int("--frames", args.frames, 1, MAX_FRAMES)
     check_int("--port", args.port, 0, 65535)
     check_int("--threads", args.threads, 1, 64)
-    models = load_board_models(args.model, args.spotting)
-    from stereogest.pipeline_outputs import load_posture_model
-    posture_model = load_posture_model(args.posture_model)
+    from stereogest.pipeline_outputs import load_models_with_postures
+    models, posture_model = load_models_with_postures(args.model, args.spotting,
+                                                      args.posture_model)
     if args.clip is not None:
         from sim.clip import load_clip
         clip = load_clip(args.clip)

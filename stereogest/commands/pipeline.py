@@ -18,12 +18,10 @@ import json
 import sys
 import time
 
-from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, add_postures, board_results,
-                                         frame_postures, load_board_models,
-                                         load_posture_model, parse_frames, progress_printer,
-                                         recognised_gestures, sequence_score, stream_results,
-                                         warn_if_empty,
-                                         write_outputs)
+from stereogest.pipeline_outputs import (SPOTTING_MODES, STALE, add_postures, frame_postures,
+                                         load_models_with_postures, parse_frames,
+                                         progress_printer, recognised_gestures, sequence_score,
+                                         spot, warn_if_empty, write_outputs)
 
 NAME = "pipeline"
 HELP = "golden model of the FPGA pipeline over a clip: trajectory.csv and stage pictures"
@@ -74,8 +72,7 @@ def run(args) -> int:
     clip = load_clip(args.clip)
     frames = clip.left.shape[0]
     chosen = set(parse_frames(args.frames, frames, clip.motion_frames))
-    models = load_board_models(args.model, args.spotting)
-    models = (models, load_posture_model(args.posture_model))
+    models = load_models_with_postures(args.model, args.spotting, args.posture_model)
     overrides = {k: v for k, v in (("spot_threshold", args.spot_threshold),
                                    ("spot_hold", args.spot_hold)) if v is not None}
     params = PipelineParams.for_frame(clip.width, hand_tracking=args.hand_tracking,
@@ -113,8 +110,7 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
                                     rectification=rectification)
     seconds = time.perf_counter() - start
     warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
-    results = stream_results(models, trajectory, clip.width) \
-        if args.spotting == "continuous" else board_results(models, trajectory)
+    results = spot(models, posture_model, trajectory, clip.width, args.spotting)
     gestures = add_postures(recognised_gestures(results), frame_postures(posture_model, trajectory))
     truth = sequence_score(results, clip.sequence) if clip.sequence is not None else None
     recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
