@@ -14,7 +14,7 @@ import sys
 
 #: Subcommand modules, in the order a user meets them.
 COMMANDS = ("render", "clip", "chessboards", "calibrate", "stereo", "eval_stereo", "pipeline", "demo", "live", "gestures", "train", "classify",
-            "postures", "train_posture", "classify_posture",
+            "postures", "train_posture", "classify_posture", "posture_commands",
             "resources", "timing", "generate")
 
 

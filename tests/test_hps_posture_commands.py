@@ -250,3 +250,30 @@ def test_the_board_refuses_postures_its_posture_model_does_not_know(tmp_path, ca
     assert len(err) == 1 and "postures: flat not a class of the posture model" in err[0]
     data = json.loads(path.read_text())
     assert data["version"] == 4 and data["postures"]["stop"] == "flat"
+
+
+def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, capsys):
+    from stereogest.cli import main
+    from stereogest.pipeline_outputs import shipped_model_path
+    from sw_hps.hmm import load_models
+    path = tmp_path / "continuous.json"
+    path.write_bytes(shipped_model_path("continuous").read_bytes())
+    assert main(["posture-commands", str(path), "--command", "asl2,asl3", "--stop", "fist",
+                 "--power", "fingers", "--share", "0.4"]) == 0
+    assert load_models(path).postures == {"command": ["asl2", "asl3"], "share": 0.4,
+                                          "stop": "fist", "stop_frames": 3,
+                                          "power": {"asl2": 40, "asl3": 60}}
+    capsys.readouterr()
+    before = path.read_bytes()
+    for args, words in ((["--share", "2"], "--share: postures share must be a number in [0, 1]"),
+                        (["--stop", "flat"], "flat not a class of the posture model"),
+                        (["--power", "asl2=300,asl3=10"], "--power: postures power 'asl2'"),
+                        (["--power", "asl2"], "--power: expected POSTURE=P pairs"),
+                        (["--stop-frames", "0"], "--stop-frames: postures stop_frames"),
+                        (["--clear", "--stop", "fist"], "--clear takes no other")):
+        assert main(["posture-commands", str(path), *args]) == 2, args
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], (args, err)
+        assert path.read_bytes() == before          # nothing half-written
+    assert main(["posture-commands", str(path), "--clear"]) == 0
+    assert load_models(path).postures is None
