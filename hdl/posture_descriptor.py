@@ -1,7 +1,7 @@
 """The hand's shape descriptor, one pass over the posture mask (thesis §10.1,
 future work: "the configuration of the hand"), bit for bit
 :func:`sim.model.posture.posture_registers` about
-:func:`sim.model.posture.posture_reference` of the previous frame.
+:func:`sim.model.posture.next_reference` of the previous two frames.
 
 While the mask streams past, one pixel per clock:
 
@@ -20,7 +20,10 @@ computed once per frame, while the record goes out.
 
 After the frame's last pixel the record leaves as ``POSTURE_WORD_COUNT`` words
 on ``o_stream``, one per clock; the polar counters leave as a shift chain,
-which zeroes them for the next frame. Then the next frame's reference is loaded.
+which zeroes them for the next frame. Then the next frame's reference is
+loaded: this frame's own (centroid column, top, width) moved on by its change
+since the previous frame's own, so that a moving hand is described about
+where it is rather than where it was.
 """
 from __future__ import annotations
 
@@ -80,7 +83,7 @@ class PostureDescriptor(wiring.Component):
         (``index`` 0 .. ``POSTURE_WORD_COUNT - 1``), on consecutive cycles, the
         first ``PIXEL_STAGES + 3`` cycles after the beat of the frame's last
         pixel: :func:`sim.model.posture.posture_words` of the frame about the
-        previous frame's reference (none after reset).
+        reference predicted from the previous two frames (none after reset).
     i_gate : payload ``{x, y, hand}`` (always ready; only with ``gate``)
         The centroid the window is about: a beat between two frames' pixels
         (the pipeline's centroid, while the frame's last pixels are still in
@@ -104,7 +107,7 @@ class PostureDescriptor(wiring.Component):
         self.x_bits = bits_for(self.width - 1)
         self.y_bits = bits_for(self.height - 1)
         self.sum_x_bits = bits_for(self.width * self.height * (self.width - 1))
-        assert divider_cycles(self.sum_x_bits) + 2 * 14 < POSTURE_WORD_COUNT
+        assert divider_cycles(self.sum_x_bits) + 2 + 2 * 14 < POSTURE_WORD_COUNT
         members = {
             "i_stream": In(pixel_signature(1, real=True)),
             "o_stream": Out(stream.Signature(data.StructLayout(
@@ -473,13 +476,38 @@ class PostureDescriptor(wiring.Component):
         with m.If(done):
             m.d.sync += [have_next.eq(seen), top_next.eq(Mux(seen, box["y_min"], 0)),
                          width_next.eq(Mux(seen, box["x_max"] - box["x_min"] + 1, 0))]
+        # this frame's own reference, and the last frame's: the next one is
+        # predicted from both (sim.model.posture.next_reference), one step a cycle
+        x_own = Signal(self.x_bits, name="own_x")
+        last = {"x": Signal(self.x_bits, name="last_x"), "top": Signal(self.y_bits, name="last_top"),
+                "have": Signal(name="last_have")}
+        predict = Signal(name="predict")
+        top_moved = Signal(signed(self.y_bits + 2), name="top_moved")
+        top_pred = Signal(self.y_bits, name="pred_top")
+        x_moved = Signal(signed(self.x_bits + 2), name="x_moved")
         x_next = Signal(self.x_bits, name="next_x")
         anchor_next = Signal(a_bits, name="next_anchor")
-        products_start = Signal(name="products_start")
-        m.d.sync += products_start.eq(div.done)
+        moved1, moved2, products_start = (Signal(name=n) for n in (
+            "reference_moved1", "reference_moved2", "products_start"))
+        m.d.sync += [moved1.eq(div.done), moved2.eq(moved1), products_start.eq(moved2)]
         with m.If(div.done):
-            m.d.sync += [x_next.eq(Mux(have_next, div.quotient, 0)),
-                         anchor_next.eq(top_next + (width_next >> 1))]
+            m.d.sync += [x_own.eq(Mux(have_next, div.quotient, 0)),
+                         predict.eq(have_next & last["have"]),
+                         top_moved.eq((top_next << 1) - last["top"])]
+        with m.If(moved1):
+            m.d.sync += [
+                x_moved.eq((x_own << 1) - last["x"]),
+                top_pred.eq(Mux(~predict, top_next,
+                                Mux(top_moved < 0, 0,
+                                    Mux(top_moved > h - 1, h - 1, top_moved[:self.y_bits])))),
+            ]
+        with m.If(moved2):
+            m.d.sync += [
+                x_next.eq(Mux(~predict, x_own,
+                              Mux(x_moved < 0, 0,
+                                  Mux(x_moved > w - 1, w - 1, x_moved[:self.x_bits])))),
+                anchor_next.eq(top_pred + (width_next >> 1)),
+            ]
         coord_bits = max(self.x_bits, a_bits, w_bits)
         products = {
             "x_sq": (x_next, x_next), "anchor_sq": (anchor_next, anchor_next),
@@ -494,7 +522,8 @@ class PostureDescriptor(wiring.Component):
         w_sq = made["width_sq"]
         with m.If(finished):
             m.d.sync += [
-                ref["x"].eq(x_next), ref["top"].eq(top_next), ref["width"].eq(width_next),
+                last["x"].eq(x_own), last["top"].eq(top_next), last["have"].eq(have_next),
+                ref["x"].eq(x_next), ref["top"].eq(top_pred), ref["width"].eq(width_next),
                 ref["anchor"].eq(anchor_next), ref["have"].eq(have_next),
                 ref["x_sq"].eq(made["x_sq"]), ref["anchor_sq"].eq(made["anchor_sq"]),
             ]

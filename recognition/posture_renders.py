@@ -18,10 +18,11 @@ import numpy as np
 __all__ = ["render_postures", "posture_still", "present_still", "STILL_FRAMES", "CROP_SHARE"]
 
 #: Frames a still hand is presented for: the first has no previous centroid
-#: (no hand tracking's window, the descriptor's reference empty), the second's
-#: reference comes from a frame without the window, the third is a still hand
-#: in a stream.
-STILL_FRAMES = 3
+#: (no hand tracking's window, the descriptor's reference empty), the second is
+#: windowed about the first's centroid, the third about its own; the
+#: reference, predicted from two frames' references, is then the fourth's own
+#: and the fifth is a still hand in a stream.
+STILL_FRAMES = 5
 #: The picture's side as a share of the frame's height (the rendered hand with
 #: its fingers spread and a roll fits in it).
 CROP_SHARE = 0.4
@@ -46,12 +47,10 @@ def present_still(left, right, params, frames: int = STILL_FRAMES):
     on the same stereo frame ``frames`` times, each about the previous one's
     centroid and posture reference: the last frame's stages."""
     from sim.model.pipeline import process_frame
-    from sim.model.posture import posture_reference
     stages = None
     for _ in range(frames):
-        stages = process_frame(
-            left, right, params, previous=None if stages is None else stages.centroid,
-            reference=None if stages is None else posture_reference(stages.posture))
+        stages = process_frame(left, right, params,
+                               **({} if stages is None else stages.following()))
     return stages
 
 

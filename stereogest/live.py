@@ -78,8 +78,7 @@ class LiveSession:
                       "history": [], "gestures": [], "done": False, "error": None}
         self.pictures: dict[str, bytes] = {}
         self._cents: list = []
-        self._previous = None      # the last frame's centroid (hand tracking's gate)
-        self._reference = None     # the last frame's posture reference
+        self._following = {}       # the next frame's centroid gate and posture reference
         self._postures: list = []  # each frame's posture name (None: none), as _cents
         self._areas: list = []
         self._first = 0            # frame number of _cents[0]
@@ -98,8 +97,8 @@ class LiveSession:
         from sim.pictures import disparity_picture, trajectory_picture
         p = self.params
         stages = process_frame(left_bytes, right_bytes, p, threads=self.threads,
-                               previous=self._previous, reference=self._reference)
-        self._previous = stages.centroid
+                               **self._following)
+        self._following = stages.following()
         self._postures.append(self._posture(stages))
         self._cents.append((stages.centroid.x, stages.centroid.y))
         self._areas.append(stages.centroid.area)
@@ -149,13 +148,9 @@ class LiveSession:
 
     def _posture(self, stages):
         """The frame's posture by the posture model (None: no model, no
-        record, no hand, or refused); keeps the reference for the next frame."""
-        from sim.model.posture import posture_reference
+        record, no hand, or refused)."""
         from sw_hps.posture import record_posture
-        if stages.posture is None:
-            return None
-        self._reference = posture_reference(stages.posture)
-        if self.posture_model is None:
+        if stages.posture is None or self.posture_model is None:
             return None
         return record_posture(self.posture_model, stages.posture_words())
 

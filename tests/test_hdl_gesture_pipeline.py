@@ -12,7 +12,6 @@ from amaranth.sim import Simulator
 from hdl.gesture_pipeline import VIDEO_STAGES, GesturePipeline
 from sim.camera import CameraTiming, camera_waveform
 from sim.model.pipeline import PipelineParams, process_frame, track
-from sim.model.posture import posture_reference
 from soc.hps_interface import POSTURE_WORD_COUNT
 from sim.model.ycbcr import ycbcr444_to_422
 
@@ -42,13 +41,10 @@ def small_frames(n, width=32, height=16, seed=0):
 
 def golden(lefts, rights, params, rectification=None):
     """Model records: per-frame centroid and area, then moving average and spotting."""
-    stages, previous, reference = [], None, None
+    stages = []
     for left, right in zip(lefts, rights):
         stages.append(process_frame(left, right, params, rectification=rectification,
-                                    previous=previous, reference=reference))
-        previous = stages[-1].centroid
-        if stages[-1].posture is not None:
-            reference = posture_reference(stages[-1].posture)
+                                    **(stages[-1].following() if stages else {})))
     cents = np.array([[s.centroid.x, s.centroid.y] for s in stages])
     areas = np.array([s.centroid.area for s in stages])
     return stages, cents, areas, track(cents, areas, params)

@@ -7,8 +7,8 @@ import pytest
 from amaranth.sim import Simulator
 
 from hdl.posture_descriptor import PostureDescriptor, posture_cycles_after_frame
-from sim.model.posture import (PostureReference, posture_mask, posture_reference,
-                               posture_registers, posture_words)
+from sim.model.posture import (PostureReference, next_reference, posture_mask,
+                               posture_reference, posture_registers, posture_words)
 from soc.hps_interface import POSTURE_WORD_COUNT
 from sim.model.centroid import counted_pixels
 from verif.streams import pack
@@ -40,12 +40,15 @@ def _masks(h, w, seed, count=6):
 
 
 def _expected(masks):
-    """Each frame's words about the previous frame's reference (none at first)."""
-    ref, words = PostureReference(0, 0, 0), []
+    """Each frame's words about the reference predicted from the previous two
+    frames' own (none at first)."""
+    h, w = masks[0].shape
+    own, words = [PostureReference(0, 0, 0)] * 2, []
     for mask in masks:
+        ref = next_reference(own[-1], own[-2], w, h)
         registers = posture_registers(mask, ref)
         words.append(posture_words(registers, ref))
-        ref = posture_reference(registers)
+        own.append(posture_reference(registers))
     return words
 
 

@@ -14,7 +14,7 @@ from sim.model.pipeline import (FrameStages, PipelineParams, Trajectory, process
 from sim.model.segmentation import disparity_band, hand_mask, skin_mask
 from sim.model.stereo import stereo_match
 from sim.model.ycbcr import ycbcr422_to_444
-from sim.model.posture import posture_reference
+from sim.model.posture import PostureReference, next_reference, posture_reference
 from sim.render import LAYER_LABELS, StereoScene, render_clip
 from soc.hps_interface import POSTURE_WORD_COUNT
 
@@ -342,14 +342,18 @@ def test_run_clip_keep_progress_and_trajectory(small_clip):
                           progress=lambda done, total: calls.append((done, total)))
     assert calls == [(n, 5) for n in range(1, 6)]
     assert sorted(kept) == [1, 3]
-    each, reference = [], None     # the posture is described about the previous frame's
+    # the posture is described about a reference predicted from the last two frames' own
+    each, own = [], [PostureReference(0, 0, 0)] * 2
     for n in range(clip.frames):
-        each.append(process_frame(clip.left[n], clip.right[n], reference=reference))
-        reference = posture_reference(each[-1].posture)
+        reference = next_reference(own[-1], own[-2], clip.width, clip.height)
+        each.append(process_frame(clip.left[n], clip.right[n], reference=reference,
+                                  posture_previous=own[-1] if n else None))
+        own.append(posture_reference(each[-1].posture))
     for n in (1, 3):
         for name, a, b in zip(FrameStages._fields, kept[n], each[n]):
             assert (a == b if isinstance(a, tuple) else np.array_equal(a, b)), (n, name)
-    assert each[3].posture_reference == posture_reference(each[2].posture)
+    assert each[3].posture_reference == next_reference(own[4], own[3], clip.width, clip.height)
+    assert each[2].following()["reference"] == each[3].posture_reference
     expected = track([st.centroid[:2] for st in each], [st.centroid.area for st in each],
                      posture=[st.posture_words() for st in each])
     assert traj.posture.shape == (clip.frames, POSTURE_WORD_COUNT)

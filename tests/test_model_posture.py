@@ -111,6 +111,19 @@ def test_fingers_tell_postures_apart():
     assert max(fist[crossings]) == 1
 
 
+def test_the_next_reference_moves_on_as_the_hand_moved():
+    R = P.PostureReference
+    # moving right and up by (5, -3) a frame: described about where it is now
+    assert P.next_reference(R(40, 20, 30), R(35, 23, 28), 64, 48) == R(45, 17, 30)
+    # clamped to the frame; the width is the latest
+    assert P.next_reference(R(62, 2, 9), R(50, 9, 12), 64, 48) == R(63, 0, 9)
+    assert P.next_reference(R(3, 45, 9), R(10, 40, 9), 64, 48) == R(0, 47, 9)
+    # still: its own; no hand in either frame: the latest alone
+    assert P.next_reference(R(40, 20, 30), R(40, 20, 30), 64, 48) == R(40, 20, 30)
+    assert P.next_reference(R(40, 20, 30), R(0, 0, 0), 64, 48) == R(40, 20, 30)
+    assert P.next_reference(R(0, 0, 0), R(35, 23, 28), 64, 48) == R(0, 0, 0)
+
+
 def test_no_hand_gives_zeros():
     empty = np.zeros((10, 12), bool)
     registers, features = P.describe_still(empty)

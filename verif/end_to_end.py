@@ -132,16 +132,17 @@ def _still_postures(last: FrameStages, params: PipelineParams, extra: int) -> li
     ``last``: its mask (windowed about its own centroid) described about the
     previous repeat's reference."""
     from sim.model.centroid import counted_pixels
-    from sim.model.posture import (posture_mask, posture_reference, posture_registers,
-                                   posture_words)
+    from sim.model.posture import posture_mask, posture_registers, posture_words
     mask = posture_mask(last.hand)
     if params.posture_gate:
         mask = counted_pixels(mask, previous=last.centroid, track_gate=params.posture_gate)
-    records, registers = [], last.posture
+    records, stages = [], last
     for _ in range(extra):
-        reference = posture_reference(registers)
-        registers = posture_registers(mask, reference)
-        records.append(posture_words(registers, reference))
+        following = stages.following()
+        registers = posture_registers(mask, following["reference"])
+        stages = stages._replace(posture=registers, posture_reference=following["reference"],
+                                 posture_previous=following["posture_previous"])
+        records.append(posture_words(registers, following["reference"]))
     return records
 
 

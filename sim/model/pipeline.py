@@ -35,7 +35,8 @@ from .median import median3x3
 from .morphology import opening, structuring_element
 from .moving_average import moving_average
 from .orientation import NO_SYMBOL, orientation_symbols
-from .posture import (PostureReference, PostureRegisters, posture_mask, posture_reference,
+from .posture import (PostureReference, PostureRegisters, next_reference, posture_mask,
+                      posture_reference,
                       posture_registers, posture_words)
 from .rectify import StereoRectification, rectify_pair
 from .segmentation import disparity_band, hand_mask, skin_mask
@@ -48,6 +49,8 @@ __all__ = ["check_rectification", "PipelineParams", "DEMO_SPOT_HOLD", "HAND_TRAC
            "step_symbols", "run_clip"]
 
 
+#: The posture reference before the first frame (no hand).
+EMPTY_REFERENCE = PostureReference(0, 0, 0)
 #: Still frames that end a gesture in the end-to-end demo (:meth:`PipelineParams.for_frame`).
 DEMO_SPOT_HOLD = 24
 #: Hand tracking of :meth:`PipelineParams.for_frame` (``hand_tracking=True``) for
@@ -192,15 +195,31 @@ class FrameStages(NamedTuple):
     centroid: Centroid
     #: the posture's mask (3x3 opening of ``hand``, within ``posture_gate``), bool
     posture_mask: np.ndarray | None = None
-    #: its descriptor about ``posture_reference`` (the previous frame's)
+    #: its descriptor about ``posture_reference`` (predicted from the
+    #: previous two frames, :func:`sim.model.posture.next_reference`)
     posture: PostureRegisters | None = None
     posture_reference: PostureReference | None = None
+    #: the previous frame's own reference (:func:`sim.model.posture.posture_reference`)
+    posture_previous: PostureReference | None = None
 
     def posture_words(self) -> list | None:
         """The frame's posture record as the hardware sends it (None without)."""
         if self.posture is None:
             return None
         return posture_words(self.posture, self.posture_reference)
+
+    def following(self) -> dict:
+        """:func:`process_frame`'s keyword arguments for the next frame: this
+        frame's centroid (the hand tracking's gate), the posture reference
+        predicted from this frame's and the previous frame's own references,
+        and this frame's own reference."""
+        if self.posture is None:
+            return {"previous": self.centroid}
+        height, width = self.hand.shape
+        own = posture_reference(self.posture)
+        return {"previous": self.centroid, "posture_previous": own,
+                "reference": next_reference(own, self.posture_previous or EMPTY_REFERENCE,
+                                            width, height)}
 
 
 def check_rectification(rectification, width: int, height: int) -> None:
@@ -220,6 +239,7 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
                   *, rectification: StereoRectification | None = None,
                   previous: Centroid | None = None,
                   reference: PostureReference | None = None,
+                  posture_previous: PostureReference | None = None,
                   threads: int | None = None) -> FrameStages:
     """Run one stereo frame through every pixel stage (§5.4 - §7.1).
 
@@ -229,8 +249,9 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     conversion; None (the thesis' pipeline) leaves them as they are.
     ``previous`` is the previous frame's centroid, which the hand tracking's
     gate needs (``params.track_gate``; None: the clip's first frame), and
-    ``reference`` the posture reference of the previous frame's descriptor
-    (:func:`sim.model.posture.posture_reference`; None: none yet).
+    ``reference`` the reference the posture descriptor is about and
+    ``posture_previous`` the previous frame's own reference (None: none yet);
+    :meth:`FrameStages.following` gives the three for the next frame.
     """
     y_left, cb_left, cr_left = ycbcr422_to_444(left_bytes)
     y_right, _, _ = ycbcr422_to_444(right_bytes)
@@ -259,9 +280,9 @@ def process_frame(left_bytes, right_bytes, params: PipelineParams = PipelinePara
     if params.posture_gate:
         shape_mask = counted_pixels(shape_mask, previous=previous,
                                     track_gate=params.posture_gate)
-    reference = reference or PostureReference(0, 0, 0)
+    reference = reference or EMPTY_REFERENCE
     return FrameStages(y_left, y_right, disparity, skin, band, hand, opened, cen, shape_mask,
-                       posture_registers(shape_mask, reference), reference)
+                       posture_registers(shape_mask, reference), reference, posture_previous)
 
 
 #: Stages of the pipeline's stage-select video output (thesis Table 22, SW[9:7]).
@@ -348,16 +369,14 @@ def run_clip(left_frames, right_frames, params: PipelineParams = PipelineParams(
     cents = np.zeros((frames, 2), np.int64)
     areas = np.zeros(frames, np.int64)
     kept: dict[int, FrameStages] = {}
-    previous = reference = None
+    following = {}
     records = []
     for n in range(frames):
         stages = process_frame(left_frames[n], right_frames[n], params,
-                               rectification=rectification, previous=previous,
-                               reference=reference, threads=threads)
-        previous = stages.centroid
+                               rectification=rectification, threads=threads, **following)
+        following = stages.following()
         if stages.posture is not None:
             records.append(stages.posture_words())
-            reference = posture_reference(stages.posture)
         cents[n] = stages.centroid.x, stages.centroid.y
         areas[n] = stages.centroid.area
         if keep(n):

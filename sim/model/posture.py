@@ -7,8 +7,10 @@ The posture's mask is the segmented mask (skin AND band) after a 3x3 square
 opening, which keeps fingers 3 px wide and removes speckle.
 
 The descriptor is what the hardware accumulates while that mask streams past,
-one pixel per clock, about a reference taken from the previous frame's
-registers (a still picture is presented twice, so the reference is its own):
+one pixel per clock, about a reference taken from the previous two frames'
+registers (:func:`next_reference`: where the hand's top and column will be if
+it moves on as it did; a still picture presented three times is described
+about its own):
 
 * the frame's own statistics: area, sums of x and y, second moments, bounding
   box (they give the next frame's reference);
@@ -46,7 +48,7 @@ from .validation import check_bool_image
 
 __all__ = ["SECTORS", "RINGS", "RING_EDGES_16THS", "BANDS", "BAND_SPAN", "FEATURES",
            "PostureReference", "PostureRegisters", "posture_mask", "posture_registers",
-           "posture_reference", "posture_features", "describe_still", "sector_of",
+           "posture_reference", "next_reference", "posture_features", "describe_still", "sector_of",
            "posture_words",
            "TAN_Q", "TANGENTS"]
 
@@ -183,6 +185,21 @@ def posture_reference(registers: PostureRegisters) -> PostureReference:
                             registers.x_max - registers.x_min + 1)
 
 
+def next_reference(latest: PostureReference, before: PostureReference, width: int,
+                   height: int) -> PostureReference:
+    """The reference the next frame's descriptor is about, from the last two
+    frames' own references (:func:`posture_reference`): the latest one, its
+    column and top moved on by their change since the one before when both
+    saw a hand (a hand in motion is described about where it is now, not
+    where it was), clamped to the ``width`` x ``height`` frame; the width is
+    the latest. A still hand's is its own."""
+    if latest.width == 0 or before.width == 0:
+        return latest
+    return PostureReference(min(max(2 * latest.x - before.x, 0), width - 1),
+                            min(max(2 * latest.top - before.top, 0), height - 1),
+                            latest.width)
+
+
 def posture_features(registers: PostureRegisters, reference: PostureReference) -> np.ndarray:
     """The classifier's input (FEATURES floats), as the board computes it
     (:func:`sw_hps.posture.posture_features`): each polar count over W squared,
@@ -195,7 +212,8 @@ def posture_features(registers: PostureRegisters, reference: PostureReference) -
 def describe_still(hand) -> tuple[PostureRegisters, np.ndarray]:
     """A still picture's descriptor as the hardware gives it: the picture's
     posture mask presented twice, the second frame's registers about the
-    first's reference; returns those registers and the features."""
+    first's reference (the frame before it had no hand, so nothing is
+    predicted); returns those registers and the features."""
     mask = posture_mask(hand)
     empty = PostureReference(0, 0, 0)
     reference = posture_reference(posture_registers(mask, empty))
