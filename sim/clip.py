@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.distractors import DISTRACTOR_KINDS
-from sim.hand_postures import POSTURE_NAMES
+from sim.hand_postures import HAND_SHAPE_NAMES
 from sim.gesture_shapes import GESTURE_NAMES
 
 __all__ = [
@@ -122,7 +122,7 @@ class Clip:
         A rendered sequence with non-gesture motion: every distractor's kind
         and span (first, last), in order, none overlapping a gesture.
     postures : tuple of str, optional
-        The hand's posture in each frame (:data:`sim.hand_postures.POSTURE_NAMES`);
+        The hand's posture in each frame (:data:`sim.hand_postures.HAND_SHAPE_NAMES`);
         ``clip.json`` keeps it as runs (``postures``: ``{"posture", "frames"}``),
         ``truth.csv`` per frame.
     renderer : dict
@@ -286,14 +286,14 @@ def _check_metadata(meta, where: str) -> dict:
     if "distractors" in meta:
         _check_distractors(meta, bad)
     if "postures" in meta:
-        spans = _rising_spans(meta["postures"], "posture", POSTURE_NAMES, "frames", 0,
+        spans = _rising_spans(meta["postures"], "posture", HAND_SHAPE_NAMES, "frames", 0,
                               meta["frames"] - 1) \
             if isinstance(meta["postures"], list) and truth else None
         if not spans or spans[0][0] != 0 or spans[-1][1] != meta["frames"] - 1 or any(
                 b[0] != a[1] + 1 for a, b in zip(spans, spans[1:])):
             raise bad("postures", "a list of {\"posture\": NAME, \"frames\": [first, last]} "
                                   "covering every frame in order (a rendered clip's); NAME "
-                                  "one of " + ", ".join(POSTURE_NAMES))
+                                  "one of " + ", ".join(HAND_SHAPE_NAMES))
     return meta
 
 

@@ -22,6 +22,14 @@ between any two gestures):
     the hand moves towards or away from the cameras across the disparity
     band (thesis §6.2: TL < d < TH) and back, with a little sideways drift.
 
+Each distractor also has the hands people make in it
+(:func:`distractor_hands`): a reach opens the hand and closes it round the
+object, a scratch curls the fingers at the face, a wave is an open palm, a
+drift a relaxed hand, ``depth`` and ``out-of-view`` any hand but a fist (the
+stop posture); or, for a share
+of them (:data:`COMMAND_SHARE`), the command posture throughout, so that the
+trajectory's own rejection is still measured.
+
 Paths are in units of the gesture amplitude (the renderer's 200 reference
 pixels at 640 x 480; a trajectory dataset's typical gesture size), so the
 renderer (:class:`sim.render.DistractorScene`) and the trajectory streams
@@ -35,8 +43,8 @@ import numpy as np
 
 from sim.gesture_shapes import minimum_jerk
 
-__all__ = ["DISTRACTOR_KINDS", "DistractorMotion", "distractor_motion", "check_kind",
-           "DEPTH_TOWARDS", "DEPTH_AWAY"]
+__all__ = ["DISTRACTOR_KINDS", "DistractorMotion", "distractor_motion", "distractor_hands",
+           "check_kind", "DEPTH_TOWARDS", "DEPTH_AWAY", "COMMAND_SHARE"]
 
 #: The kinds of non-gesture motion (module docstring), in a fixed order.
 DISTRACTOR_KINDS = ("out-of-view", "scratch", "reach", "drift", "wave", "depth")
@@ -62,11 +70,15 @@ class DistractorMotion(NamedTuple):
         False while the hand is below the picture (``out-of-view``: at or
         beyond ``exit_below``): a trajectory stream has no picture edge, so
         this says where a camera would see no hand.
+    hold : (int, int)
+        First and last frame the hand waits at the far end (a reach at the
+        object, a scratch at the face, out of view); (0, -1) for none.
     """
     kind: str
     offset: np.ndarray
     disparity: np.ndarray
     in_view: np.ndarray
+    hold: tuple = (0, -1)
 
     @property
     def frames(self) -> int:
@@ -168,7 +180,41 @@ def distractor_motion(kind: str, rng: np.random.Generator, *, fps: int = 30,
         ramp = np.concatenate([[0.0], minimum_jerk(np.arange(1, go + 1) / go), np.ones(hold),
                                1 - minimum_jerk(np.arange(1, back + 1) / back)])
         return DistractorMotion(kind, ramp[:, None] * drift, change * ramp,
-                                np.ones(len(ramp), bool))
+                                np.ones(len(ramp), bool), (1 + go, go + hold))
     offset = np.concatenate(parts)
     offset[-1] = 0.0
-    return DistractorMotion(kind, offset, np.zeros(len(offset)), offset[:, 1] < exit_below)
+    held = (0, -1)
+    if len(parts) == 4:                 # rest, go, hold, back
+        first = len(parts[0]) + len(parts[1])
+        held = (first, first + len(parts[2]) - 1)
+    return DistractorMotion(kind, offset, np.zeros(len(offset)), offset[:, 1] < exit_below,
+                            held)
+
+
+#: Share of distractors made in the command posture, drawn per stream from
+#: this range (:func:`distractor_hands`' ``command``).
+COMMAND_SHARE = (0.2, 0.4)
+
+
+def distractor_hands(motion: DistractorMotion, rng: np.random.Generator,
+                     command: str | None = None) -> tuple:
+    """The hand's shape in each frame of ``motion`` (names of
+    :data:`sim.hand_postures.HAND_SHAPES`): the kind's (module docstring),
+    or ``command`` throughout when given (a distractor made in the command
+    posture)."""
+    from sim.hand_postures import HAND_SHAPE_NAMES
+    n = motion.frames
+    if command is not None:
+        return (command,) * n
+    first, last = motion.hold
+    if motion.kind == "reach":          # open on the way, closed round the object after
+        return ("asl5",) * first + ("grasp",) * (n - first)
+    if motion.kind == "scratch":        # relaxed on the way, curled at the face
+        return ("relaxed",) * first + ("claw",) * (last - first + 1) + \
+            ("relaxed",) * (n - last - 1)
+    if motion.kind == "wave":
+        return ("asl5",) * n
+    if motion.kind == "drift":
+        return ("relaxed",) * n
+    anything = [name for name in HAND_SHAPE_NAMES if name != "fist"]   # a fist is a stop
+    return (str(anything[int(rng.integers(len(anything)))]),) * n

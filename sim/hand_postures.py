@@ -13,7 +13,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 __all__ = ["FINGERS", "HandPosture", "POSTURES", "POSTURE_NAMES", "POSTURE_ALIASES",
-           "DEFAULT_POSTURE", "resolve_posture", "extended_fingers", "ROLL_RANGE"]
+           "DEFAULT_POSTURE", "COMMAND_POSTURE", "OTHER_HANDS", "HAND_SHAPES",
+           "HAND_SHAPE_NAMES", "resolve_posture", "resolve_hand", "extended_fingers",
+           "ROLL_RANGE"]
 
 #: The four fingers in order across the palm (thumb apart).
 FINGERS = ("index", "middle", "ring", "little")
@@ -55,6 +57,21 @@ POSTURE_ALIASES = {"open": "asl5", "point": "asl1", "v": "asl2"}
 #: What a clip without a named posture shows: the open hand (the renderer's
 #: original hand, four fingers together and the thumb out).
 DEFAULT_POSTURE = "asl5"
+#: The posture ``stereogest render`` makes gestures in unless told otherwise:
+#: the shipped continuous model's first command posture (a test keeps them
+#: equal).
+COMMAND_POSTURE = "asl2"
+#: Hands that are no posture class: what a hand does between commands
+#: (:mod:`sim.distractors`): loosely bent fingers, fingers curled apart to
+#: scratch, fingers and thumb closing round a cup.
+OTHER_HANDS = {
+    "relaxed": HandPosture((0.8, 0.72, 0.66, 0.6), "out", 1.15),
+    "claw": HandPosture((0.6, 0.6, 0.6, 0.6), "out", 1.35),
+    "grasp": HandPosture((0.5, 0.5, 0.5, 0.45), "out", 0.9),
+}
+#: Every hand the renderer draws, by name.
+HAND_SHAPES = {**POSTURES, **OTHER_HANDS}
+HAND_SHAPE_NAMES = tuple(HAND_SHAPES)
 
 
 def resolve_posture(name) -> str:
@@ -71,6 +88,19 @@ def resolve_posture(name) -> str:
             return name
     raise ValueError(f"posture must be one of {', '.join(POSTURE_NAMES + tuple(POSTURE_ALIASES))}"
                      f", got {name!r}")
+
+
+def resolve_hand(name) -> str:
+    """The hand's name in :data:`HAND_SHAPE_NAMES` (a posture's aliases resolved);
+    ``ValueError`` naming them."""
+    if isinstance(name, str) and name in OTHER_HANDS:
+        return name
+    try:
+        return resolve_posture(name)
+    except ValueError:
+        raise ValueError(f"hand must be one of "
+                         f"{', '.join(HAND_SHAPE_NAMES + tuple(POSTURE_ALIASES))}, "
+                         f"got {name!r}") from None
 
 
 def extended_fingers(name: str) -> int:

@@ -46,9 +46,11 @@ import numpy as np
 
 from sim.clip import MAX_DISPARITY, Clip, round_truth
 from sim.difficulties import Difficulties, camera_gains
-from sim.distractors import DISTRACTOR_KINDS, check_kind, distractor_motion
+from sim.distractors import (COMMAND_SHARE, DISTRACTOR_KINDS, check_kind, distractor_hands,
+                             distractor_motion)
 from sim.gesture_shapes import GESTURE_NAMES, gesture_id, gesture_path, random_time_warp
-from sim.hand_postures import DEFAULT_POSTURE, FINGERS, POSTURES, ROLL_RANGE, resolve_posture
+from sim.hand_postures import (COMMAND_POSTURE, DEFAULT_POSTURE, FINGERS, HAND_SHAPES,
+                               ROLL_RANGE, resolve_hand, resolve_posture)
 from sim.model.validation import check_int
 from sim.model.ycbcr import ycbcr444_to_422
 
@@ -87,12 +89,14 @@ _STREAM_LAYOUT, _STREAM_BACKGROUND, _STREAM_TORSO, _STREAM_FACE, _STREAM_HAND = 
 _STREAM_MOTION, _STREAM_NOISE, _STREAM_EXPOSURE, _STREAM_FOREARM = 6, 7, 8, 9
 _STREAM_CLUTTER, _STREAM_INTRUDER, _STREAM_SEQUENCE = 10, 11, 12
 _STREAM_DISTRACTOR = 13
-_STREAM_POSTURE, _STREAM_ROLL = 14, 15
+_STREAM_POSTURE, _STREAM_ROLL, _STREAM_HANDS = 14, 15, 16
 #: Most a hand's roll changes from one frame to the next, and from the clip's.
 _ROLL_STEP, _ROLL_WOBBLE = 1, 3
 #: ``gesture_id`` of a distractor scene's random streams: this plus its index
 #: (apart from the gestures' 0..6).
 _DISTRACTOR_ID = 1000
+#: First noise/exposure id of a held posture (:class:`HoldScene`): apart from the distractors.
+_HOLD_ID = 70000
 #: The intruder ball (reference px radius), its disparity below the hand's.
 _INTRUDER_RADIUS, _INTRUDER_BELOW_HAND = 26.0, 2
 #: Forearm (reference px): radius, wrist below the palm centre, segments of one
@@ -333,7 +337,7 @@ class StereoScene:
         self.disparities["hair"] = self.disparities["face"]
         self._layout(layout)
 
-        self.posture = None if posture is None else resolve_posture(posture)
+        self.posture = None if posture is None else resolve_hand(posture)
         self._roll = None if roll is None else check_int("roll", roll, *ROLL_RANGE)
         if self.posture is None and roll is not None:
             raise ValueError("roll needs a posture (the open hand of a clip without one "
@@ -403,7 +407,11 @@ class StereoScene:
 
     def _plan_rolls(self) -> None:
         """Per frame, the hand's roll in degrees: the clip's, wandering by at most
-        ``_ROLL_STEP`` a frame and ``_ROLL_WOBBLE`` from it (0 without a posture)."""
+        ``_ROLL_STEP`` a frame and ``_ROLL_WOBBLE`` from it (0 without a posture);
+        and the hand's shape (:attr:`hand_shapes`: the posture, unless the
+        motion planned its own)."""
+        if getattr(self, "hand_shapes", None) is None:
+            self.hand_shapes = (self.posture,) * self.frames
         self.hand_rolls = np.zeros(self.frames, np.int64)
         if self.posture is None:
             return
@@ -418,10 +426,10 @@ class StereoScene:
         """The hand's sprite in ``frame``."""
         if self.posture is None:
             return self._hand_sprite
-        roll = int(self.hand_rolls[frame])
-        if roll not in self._sprites:
-            self._sprites[roll] = self._draw_hand(self.posture, roll)
-        return self._sprites[roll]
+        key = (self.hand_shapes[frame], int(self.hand_rolls[frame]))
+        if key not in self._sprites:
+            self._sprites[key] = self._draw_hand(*key)
+        return self._sprites[key]
 
     def _draw_hand(self, posture: str | None, roll: int) -> "_Sprite":
         """Palm, four fingers and a thumb (a right hand, palm to the cameras), ~80 px
@@ -440,7 +448,7 @@ class StereoScene:
             x_lo, x_hi, y_lo, y_hi = -reach, reach, -reach, reach
             person = self._person
             palm_size, length_k, width_k = person["palm"], person["length"], person["width"]
-            extension, thumb, spread = POSTURES[posture]
+            extension, thumb, spread = HAND_SHAPES[posture]
         ys, xs = np.mgrid[y_lo:y_hi + 1, x_lo:x_hi + 1].astype(np.float32)
         shape = xs.shape
 
@@ -1079,6 +1087,10 @@ class DistractorScene(StereoScene):
         The gesture whose rest position the hand starts from.
     n_pre_rest, n_post_rest : int
         Frames of rest before and after the motion.
+    command : str, optional
+        Make it in this posture throughout (a distractor in the command
+        posture); by default the hands of its kind
+        (:func:`sim.distractors.distractor_hands`).
 
     The other parameters are :class:`StereoScene`'s. ``motion_span`` is the
     distractor's; the hand leaves the picture in ``out-of-view`` (its truth is
@@ -1091,14 +1103,16 @@ class DistractorScene(StereoScene):
                  fps: int = 30, hand_disparity: int = 40, face_disparity: int = 24,
                  torso_disparity: int = 28, background_disparity: int | None = None,
                  n_pre_rest: int = 0, n_post_rest: int = 0, noise: bool = True,
-                 difficulties: Difficulties | None = None) -> None:
+                 difficulties: Difficulties | None = None, command: str | None = None) -> None:
         self.kind = check_kind(kind)
         self.index = check_int("index", index, 0, 65535)
+        self.command = None if command is None else resolve_posture(command)
+        # a posture, so the person's hand proportions are drawn; the shapes are planned
         super().__init__(gesture, seed, width, height, fps=fps, hand_disparity=hand_disparity,
                          face_disparity=face_disparity, torso_disparity=torso_disparity,
                          background_disparity=background_disparity, n_pre_rest=n_pre_rest,
                          n_motion=2, n_post_rest=n_post_rest, noise=noise,
-                         difficulties=difficulties)
+                         difficulties=difficulties, posture="relaxed")
 
     def _plan_motion(self, n_pre_rest, n_motion, n_post_rest) -> None:
         super()._plan_motion(n_pre_rest, n_motion, n_post_rest)   # rest and room
@@ -1128,9 +1142,53 @@ class DistractorScene(StereoScene):
         disparity[pre:pre + path.frames] += path.disparity
         self.hand_disparities = np.clip(np.rint(disparity), 0,
                                         MAX_DISPARITY - 1).astype(np.int64)
+        hands = distractor_hands(path, self._rng(_STREAM_HANDS, self.index), self.command)
+        self.hand_shapes = (hands[0],) * pre + hands + (hands[-1],) * post
 
     def parameters(self) -> dict:
-        return dict(super().parameters(), distractor=self.kind, distractor_index=self.index)
+        return dict(super().parameters(), distractor=self.kind, distractor_index=self.index,
+                    distractor_command=self.command)
+
+
+class HoldScene(StereoScene):
+    """The person and room of ``StereoScene(..., seed)`` holding the hand
+    still at the rest position ``gesture``'s scene would have: ``before``
+    frames in ``around``, ``hold`` frames in ``posture`` (a stop posture held,
+    say), ``after`` frames in ``around`` again. ``motion_span`` is the hold.
+    The other parameters are :class:`StereoScene`'s."""
+
+    def __init__(self, posture: str, seed: int, width: int = REFERENCE_WIDTH,
+                 height: int = REFERENCE_HEIGHT, *, before: int = 15, hold: int = 30,
+                 after: int = 15, around: str = COMMAND_POSTURE, gesture: str = "stop",
+                 index: int = 0, **options) -> None:
+        self._hold = (check_int("before", before, 0, MAX_SEGMENT_FRAMES),
+                      check_int("hold", hold, 1, MAX_SEGMENT_FRAMES),
+                      check_int("after", after, 0, MAX_SEGMENT_FRAMES))
+        self._shapes = (resolve_posture(around), resolve_posture(posture))
+        self.index = check_int("index", index, 0, 65535)
+        super().__init__(gesture, seed, width, height, posture=self._shapes[0], **options)
+
+    def _plan_motion(self, n_pre_rest, n_motion, n_post_rest) -> None:
+        super()._plan_motion(n_pre_rest, n_motion, n_post_rest)   # rest and room
+        self.gesture_id = _HOLD_ID + self.index                   # own noise, exposure
+        before, hold, after = self._hold
+        self.n_pre_rest, self.n_motion, self.n_post_rest = before, hold, after
+        self.frames = before + hold + after
+        self.motion_span = (before, before + hold - 1)
+        self.hand_anchor = np.repeat(np.rint(np.array(self.rest))[None].astype(np.int64),
+                                     self.frames, axis=0)
+        self.hand_disparities = np.full(self.frames, self.disparities["hand"], np.int64)
+        around, posture = self._shapes
+        self.hand_shapes = (around,) * before + (posture,) * hold + (around,) * after
+
+    def parameters(self) -> dict:
+        return dict(super().parameters(), hold_posture=self._shapes[1], hold_index=self.index)
+
+
+def render_hold(posture: str, seed: int, width: int = REFERENCE_WIDTH,
+                height: int = REFERENCE_HEIGHT, **options) -> Clip:
+    """A :class:`HoldScene` rendered (``gesture`` of the clip: None)."""
+    return render_scene(HoldScene(posture, seed, width, height, **options))
 
 
 def render_scene(scene: StereoScene) -> Clip:
@@ -1146,12 +1204,13 @@ def render_scene(scene: StereoScene) -> Clip:
         x, y, area = scene.hand_truth(frame)
         hand_xy[frame] = (x, y)
         hand_area[frame] = area
-    return Clip(gesture=None if isinstance(scene, DistractorScene) else scene.gesture,
+    return Clip(gesture=None if isinstance(scene, (DistractorScene, HoldScene))
+                else scene.gesture,
                 seed=scene.seed, fps=scene.fps,
                 hand_disparity=scene.disparities["hand"],
                 face_disparity=scene.disparities["face"], motion_frames=scene.motion_span,
                 left=left, right=right, hand_xy=round_truth(hand_xy), hand_area=hand_area,
-                postures=(scene.posture or DEFAULT_POSTURE,) * scene.frames,
+                postures=tuple(name or DEFAULT_POSTURE for name in scene.hand_shapes),
                 renderer=scene.parameters())
 
 
@@ -1200,7 +1259,7 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
                     height: int = REFERENCE_HEIGHT, *, pause=(0, 15), fps: int = 30,
                     noise: bool = True, difficulties: Difficulties | None = None,
                     distractors: bool = False, frames: int | None = None,
-                    postures=None) -> Clip:
+                    postures=None, command: str | None = COMMAND_POSTURE) -> Clip:
     """One clip of several gestures one after another (issue 28): the same
     person and room (``seed``), each gesture as :func:`render_clip` draws it
     (every gesture path starts and ends at the rest position in front of the
@@ -1214,6 +1273,9 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
     clip holds distractors only, one after another, cut at ``frames`` frames
     (required then, and only then). ``postures``: per gesture, the posture it
     is made in (None: the open hand), e.g. from ``NAME@POSTURE`` entries.
+    Distractors have their kind's hands (:func:`sim.distractors.distractor_hands`),
+    but a share of them, drawn from ``seed`` in
+    :data:`sim.distractors.COMMAND_SHARE`, is made in ``command`` (None: none).
 
     Returns
     -------
@@ -1230,6 +1292,7 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
         raise ValueError(f"postures must name one posture (or None) per gesture, got "
                          f"{len(postures)} for {len(gestures)} gestures")
     postures = [None if p is None else resolve_posture(p) for p in postures]
+    command = None if command is None else resolve_posture(command)
     if any(g not in GESTURE_NAMES for g in gestures) or not (gestures or distractors):
         raise ValueError(f"sequence must name one or more of {', '.join(GESTURE_NAMES)} "
                          f"(or none, with distractors), got "
@@ -1258,14 +1321,21 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
         parts.append(part)
 
     kinds = []
+    hands = np.random.default_rng([seed, _STREAM_HANDS])
+    share = hands.uniform(*COMMAND_SHARE)
+    due = [hands.uniform()]            # the share's running count: one in command each 1/share
 
     def distractor(before, after):
         if not kinds:                     # each kind as often as the others
             kinds.extend(others.permutation(len(DISTRACTOR_KINDS)).tolist())
         kind = DISTRACTOR_KINDS[kinds.pop(0)]
+        due[0] += share
+        in_command = command is not None and due[0] >= 1.0
+        due[0] -= in_command
         scene = DistractorScene(kind, seed, width, height, index=len(extra),
                                 gesture=gestures[len(spans)] if gestures else "stop",
-                                n_pre_rest=before, n_post_rest=after, **scene_options)
+                                n_pre_rest=before, n_post_rest=after,
+                                command=command if in_command else None, **scene_options)
         add(render_scene(scene), kind, extra)
 
     if not gestures:
@@ -1286,6 +1356,8 @@ def render_sequence(gestures, seed: int, width: int = REFERENCE_WIDTH,
     renderer = dict(head.renderer, sequence_pause=[lo, hi])
     if distractors:
         renderer["distractors"] = True
+        renderer["distractor_command_share"] = round(float(share), 4) \
+            if command is not None else 0.0
     return Clip(gesture=gestures[-1] if gestures else None, seed=head.seed, fps=head.fps,
                 hand_disparity=head.hand_disparity, face_disparity=head.face_disparity,
                 motion_frames=(covered[0][1], covered[-1][2]),

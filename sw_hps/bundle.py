@@ -8,6 +8,7 @@ The tarball unpacks to::
     soc/hps_interface.py   what the FPGA and the application agree on (registers,
                            bases, gesture classes; standard library only)
     model.json             the HMM model file
+    posture.json           the posture classifier (sw_hps/models/posture.json)
     install.sh             installs or redeploys the bundle (a fresh tree swapped in
                            by renaming), and the service
     BRINGUP.md, ROBOT.md   docs/bring-up.md and docs/robot-link.md, when present
@@ -101,6 +102,7 @@ def readme(names, root=ROOT) -> str:
              (SERVICE + "/", "systemd unit, SysV init script, example settings, wait-core"),
              ("soc/hps_interface.py", "the registers the FPGA core and the application share"),
              ("model.json", "the trained gesture model"),
+             ("posture.json", "the posture classifier (--posture-model posture.json)"),
              (INSTALLER[1], "installs or redeploys this bundle, and the service")]
     files += [(name, what) for _, name, what in DOCS if name in names]
     files.append(("README.txt", "this file"))
@@ -176,6 +178,11 @@ def check_model(path) -> str:
     from .app import check_models
     from .hmm import load_models
     models = check_models(load_models(path))
+    if models.postures is not None:       # the bundle's posture classifier must know them
+        from .posture import read_posture_model
+        from .posture_commands import check_posture_classes
+        posture = read_posture_model(Path(__file__).parent / "models" / "posture.json")
+        check_posture_classes(models.postures, posture.class_names, where=f"{path}: postures")
     return f"{models.emission} model, {len(models.class_names)} classes, checked in full"
 
 
@@ -201,6 +208,7 @@ def bundle_files(model_path, root=ROOT) -> dict:
         if (root / source).is_file():
             files[name] = root / source
     files["model.json"] = Path(model_path)
+    files["posture.json"] = package / "models" / "posture.json"
     return files
 
 

@@ -48,6 +48,7 @@ def inputs(tmp_path_factory):
     arrays = dict(np.load(root / "data2.npz"))
     arrays["label"] = np.array([""] * len(arrays["label"]))
     np.savez(root / "blank_labels.npz", **arrays)
+    (root / "model.json").write_bytes(MODEL.read_bytes())
     (root / "text.json").write_text("not json")
     (root / "empty.json").write_text("{}")
     (root / "afile").write_text("a file where a directory is expected")
@@ -157,6 +158,14 @@ CASES = [
          match="--posture: posture must be one of"),
     case("render", "--sequence", "stop@fist,left@wave", "-o", f"{OUT}/c",
          match="--sequence: left@wave: posture must be one of"),
+    case("demo", "--sequence", "stop,left@flat", "-o", f"{OUT}/d", "--backend", "model",
+         match="--sequence: left@flat: posture must be one of"),
+    case("demo", "--gesture", "stop", "-o", f"{OUT}/d", "--backend", "model", "--posture",
+         "wave", match="--posture: posture must be one of"),
+    case("posture-commands", f"{IN}/model.json", "--command", "asl2,flat",
+         match="--command/--stop/--power: postures: flat not a class of the posture model"),
+    case("posture-commands", f"{IN}/model.json", "--power", "asl2=120", "--command", "asl2",
+         match="--power: postures power 'asl2' must be an integer in [0, 100]"),
     case("render", "--gesture", "stop", "-o", f"{OUT}/c", "--hand-scale", "0.5",
          match="--hand-scale must be a number in [0.8, 1.2]"),
     case("demo", "--clip", f"{IN}/clip", "--backend", "model", "-o", f"{OUT}/d",

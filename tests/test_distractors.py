@@ -159,3 +159,57 @@ def test_render_command_distractors_bad_input(tmp_path, capsys, argv, message):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
+
+
+def test_each_kind_has_the_hands_people_make_in_it():
+    from sim.distractors import distractor_hands
+    from sim.hand_postures import HAND_SHAPE_NAMES
+    for kind in DISTRACTOR_KINDS:
+        for seed in range(6):
+            motion = distractor_motion(kind, np.random.default_rng(seed))
+            hands = distractor_hands(motion, np.random.default_rng(seed))
+            assert len(hands) == motion.frames and set(hands) <= set(HAND_SHAPE_NAMES)
+            first, last = motion.hold
+            if kind == "reach":      # open on the way out, closed round the object after
+                assert set(hands[:first]) == {"asl5"} and set(hands[first:]) == {"grasp"}
+                assert motion.offset[first:last + 1].std(axis=0).max() < 1e-9
+            elif kind == "scratch":
+                assert set(hands[first:last + 1]) == {"claw"}
+                assert hands[0] == hands[-1] == "relaxed"
+            elif kind == "wave":
+                assert set(hands) == {"asl5"}
+            elif kind == "drift":
+                assert set(hands) == {"relaxed"}
+            else:                    # any hand but the stop posture's, held throughout
+                assert len(set(hands)) == 1 and hands[0] != "fist"
+            assert distractor_hands(motion, np.random.default_rng(seed), "asl3") == \
+                ("asl3",) * motion.frames
+
+
+def test_a_share_of_the_distractors_is_made_in_the_command_posture():
+    from sim.distractors import COMMAND_SHARE
+    clip = render_sequence([], 11, 96, 64, distractors=True, frames=2400, command="asl3")
+    share = clip.renderer["distractor_command_share"]
+    assert COMMAND_SHARE[0] <= share <= COMMAND_SHARE[1]
+    plain = render_sequence([], 11, 96, 64, distractors=True, frames=2400, command=None)
+    assert plain.renderer["distractor_command_share"] == 0.0
+    assert plain.distractors == clip.distractors      # the same motion, other hands
+    made = [clip.postures[a:b + 1] != plain.postures[a:b + 1] for _, a, b in clip.distractors]
+    assert all(set(clip.postures[a:b + 1]) == {"asl3"}
+               for (_, a, b), m in zip(clip.distractors, made) if m)
+    # one in every 1 / share, give or take the first
+    assert abs(sum(made) - share * len(made)) <= 1 and sum(made) >= len(made) // 5
+
+
+def test_a_held_posture_between_rests():
+    from sim.render import HoldScene, render_hold
+    clip = render_hold("fist", 4, 160, 120, before=5, hold=7, after=3, around="asl2")
+    assert clip.frames == 15 and clip.motion_frames == (5, 11) and clip.gesture is None
+    assert clip.postures == ("asl2",) * 5 + ("fist",) * 7 + ("asl2",) * 3
+    scene = HoldScene("fist", 4, 160, 120, before=5, hold=7, after=3, around="asl2")
+    assert len({tuple(a) for a in scene.hand_anchor}) == 1          # the hand stays put
+    assert scene.parameters()["hold_posture"] == "fist"
+    with pytest.raises(ValueError, match="hold must be"):
+        render_hold("fist", 4, 160, 120, hold=0)
+    with pytest.raises(ValueError, match="posture must be one of"):
+        render_hold("claw", 4, 160, 120)

@@ -243,3 +243,40 @@ class OutputDir:
             import shutil
             shutil.rmtree(self.path, ignore_errors=True)
         return False
+
+
+def add_posture_option(parser) -> None:
+    """``--posture``: the posture rendered gestures are made in."""
+    from sim.hand_postures import COMMAND_POSTURE, POSTURE_NAMES
+    parser.add_argument("--posture", default=COMMAND_POSTURE, metavar="POSTURE",
+                        help="the hand's posture through a rendered gesture (default: the "
+                             "shipped continuous model's command posture, "
+                             f"{COMMAND_POSTURE}): " + ", ".join(POSTURE_NAMES)
+                             + ", or open, point, v (asl5, asl1, asl2); drawn with the "
+                             "person's proportions, a roll of up to 30 degrees and small "
+                             "changes frame to frame")
+
+
+def parse_sequence(text: str, posture: str, option: str = "--sequence"):
+    """``NAME[@POSTURE],...`` as ``(names, postures)``, each posture resolved
+    (``posture``, already resolved, where an entry names none); ``ValueError``
+    names ``option`` and the entry."""
+    from sim.hand_postures import resolve_posture
+    names, postures = [], []
+    for entry in text.split(","):
+        name, at, wanted = (part.strip() for part in entry.partition("@"))
+        names.append(name)
+        try:
+            postures.append(resolve_posture(wanted) if at else posture)
+        except ValueError as exc:
+            raise ValueError(f"{option}: {name}@{wanted}: {exc}") from None
+    return names, postures
+
+
+def resolve_posture_option(value: str, option: str = "--posture") -> str:
+    """``value`` resolved to a posture name; ``ValueError`` naming ``option``."""
+    from sim.hand_postures import resolve_posture
+    try:
+        return resolve_posture(value)
+    except ValueError as exc:
+        raise ValueError(f"{option}: {exc}") from None

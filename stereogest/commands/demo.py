@@ -38,10 +38,13 @@ def add_arguments(p):
     from sim.gesture_shapes import GESTURE_NAMES
     p.add_argument("--gesture", choices=GESTURE_NAMES, default="rotate-right",
                    help="which thesis gesture to render (Fig. 16)")
-    p.add_argument("--sequence", metavar="NAME[,NAME...]", default=None,
+    p.add_argument("--sequence", metavar="NAME[@POSTURE][,...]", default=None,
                    help="render these gestures one after another instead of --gesture "
-                        "(with --pause frames of rest between them); the demo fails unless "
+                        "(with --pause frames of rest between them), each in the posture "
+                        "after its @ (default: --posture's); the demo fails unless "
                         "every one is named, once, and nothing else")
+    from stereogest.commands import add_posture_option
+    add_posture_option(p)
     p.add_argument("--pause", metavar="MIN-MAX", default="0-15",
                    help="--sequence: frames of rest between two gestures (default 0-15)")
     p.add_argument("--spotting", choices=("thesis", "continuous"), default="thesis",
@@ -145,6 +148,8 @@ def run(args) -> int:
             check_int(option, value, lo, hi)
             if value % 2:
                 raise ValueError(f"{option} must be even, in [{lo}, {hi}], got {value}")
+    from stereogest.commands import resolve_posture_option
+    args.posture = resolve_posture_option(args.posture)
     if not -1 <= args.pre_rest <= MAX_SEGMENT_FRAMES:
         raise ValueError(f"--pre-rest must be in -1..{MAX_SEGMENT_FRAMES}, got "
                          f"{args.pre_rest}")
@@ -153,7 +158,8 @@ def run(args) -> int:
         from sim.gesture_shapes import GESTURE_NAMES
         if args.clip is not None:
             raise ValueError("--sequence renders a clip; it does not apply with --clip")
-        args.sequence = [n.strip() for n in args.sequence.split(",")]
+        from stereogest.commands import parse_sequence
+        args.sequence, args.postures = parse_sequence(args.sequence, args.posture)
         if not all(n in GESTURE_NAMES for n in args.sequence):
             raise ValueError(f"--sequence: names must be among {', '.join(GESTURE_NAMES)}, "
                              f"got {','.join(args.sequence)!r}")
@@ -196,11 +202,13 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         if args.sequence is not None:
             from sim.render import render_sequence
             clip = render_sequence(args.sequence, args.seed, args.width, args.height,
+                                   postures=args.postures,
                                    pause=args.pause, difficulties=args.difficulties)
             what = ", ".join(f"{g} {a}-{b}" for g, a, b in clip.sequence)
         else:
             clip = render_clip(args.gesture, args.seed, args.width, args.height,
                                n_pre_rest=None if args.pre_rest < 0 else args.pre_rest,
+                               posture=args.posture,
                                difficulties=args.difficulties)
             what = f"{args.gesture}, motion in frames {clip.motion_frames[0]}-" \
                 f"{clip.motion_frames[1]}"

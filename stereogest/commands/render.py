@@ -10,16 +10,18 @@ thesis (Fig. 16) with a skin-coloured, textured hand held in front of the chest.
 Both cameras are rendered (YCbCr 4:2:2 byte streams, sensor noise, a small
 illumination difference) and written as a clip directory: clip.json, left.npy,
 right.npy and truth.csv (the exact hand centroid and the hand's posture of
-every frame). --posture holds a posture through the gesture (asl0 .. asl9,
-fist; open, point, v); --sequence entries take NAME@POSTURE.
+every frame). Gestures are made in the command posture of the shipped
+continuous model unless --posture names another (asl0 .. asl9, fist; open,
+point, v) or a --sequence entry says NAME@POSTURE; distractors have the hands
+people make in them, a share of them the command posture.
 """
 from __future__ import annotations
 
 import argparse
 
 from sim.gesture_shapes import GESTURE_NAMES
-from sim.hand_postures import POSTURE_NAMES
-from stereogest.commands import (DEFAULT_SEED, add_json_switch, add_scene_options,
+from stereogest.commands import (DEFAULT_SEED, add_json_switch, add_posture_option,
+                                 add_scene_options, parse_sequence, resolve_posture_option,
                                  scene_difficulties)
 
 NAME = "render"
@@ -34,11 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "edge and back, left = towards its right edge and back, "
                              "rotate-right / rotate-left = a loop on the image's left / "
                              "right side, stop = a downward-pointing triangle")
-    parser.add_argument("--posture", default=None, metavar="POSTURE",
-                        help="the hand's posture through the gesture (default: the open "
-                             "hand): " + ", ".join(POSTURE_NAMES) + ", or open, point, v "
-                             "(asl5, asl1, asl2); drawn with the person's proportions, a "
-                             "roll of up to 30 degrees and small changes frame to frame")
+    add_posture_option(parser)
     parser.add_argument("--sequence", metavar="NAME[@POSTURE][,...]", default=None,
                         help="instead of --gesture: these gestures one after another in "
                              "one clip (the truth names every gesture's frame span), each "
@@ -83,22 +81,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --gesture NAME or --sequence NAME[,NAME...]")
     if args.sequence is None and (args.distractors or args.frames is not None):
         raise ValueError("--distractors and --frames go with --sequence")
-    from sim.hand_postures import resolve_posture
-    posture = None
-    if args.posture is not None:
-        try:
-            posture = resolve_posture(args.posture)
-        except ValueError as exc:
-            raise ValueError(f"--posture: {exc}") from None
+    posture = resolve_posture_option(args.posture)
     if args.sequence is not None:
-        entries = [n.strip().partition("@") for n in args.sequence.split(",")]
-        names = [name.strip() for name, _, _ in entries]
-        postures = []
-        for name, at, wanted in entries:
-            try:
-                postures.append(resolve_posture(wanted.strip()) if at else posture)
-            except ValueError as exc:
-                raise ValueError(f"--sequence: {name.strip()}@{wanted.strip()}: {exc}") from None
+        names, postures = parse_sequence(args.sequence, posture)
         if names == ["none"]:
             names = []
             if not args.distractors or args.frames is None:
