@@ -52,6 +52,12 @@ timing: $(STAMP)
 # --spotting continuous (gestures one after another); posture.json names the
 # posture of the rendered people's hands (README, "Hand posture").
 MODEL  ?= sw_hps/models/gestures7.json
+# The continuous model's posture commands (README, "Posture commands"): chosen
+# on development seeds by benchmarks/command_postures.py.
+COMMAND_POSTURES := asl1,asl2,asl3,asl4
+COMMAND_SHARE    := 0.5
+STOP_POSTURE     := fist
+STOP_FRAMES      := 3
 BUNDLE := build/stereogest-hps.tar.gz
 
 model: $(STAMP)
@@ -63,6 +69,9 @@ model: $(STAMP)
 		--states 5 --no-reject
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
 		--emission discrete --continuous
+	$(BIN)/stereogest posture-commands sw_hps/models/continuous7.json \
+		--command $(COMMAND_POSTURES) --share $(COMMAND_SHARE) --stop $(STOP_POSTURE) \
+		--stop-frames $(STOP_FRAMES) --power fingers
 	$(BIN)/stereogest postures -o build/postures_easy.npz --people 100 --seed 1000 --quiet
 	$(BIN)/stereogest postures -o build/postures_hard.npz --people 200 --seed 2000 \
 		--scene hard --quiet

@@ -11,7 +11,9 @@ shape changes the centroid's path: thin fingers come and go in the mask),
 the share of each gesture's frames named that posture, and, at each share
 threshold, the gestures that pass the gate and the distractors that would
 (their frames named that posture). A good command posture keeps F1, passes
-its gestures and no distractor. ``--json`` keeps every figure.
+its gestures and no distractor. ``--json`` keeps every figure, and each
+gesture's and distractor's count of frames per posture name (to judge a set
+of command postures at any share).
 
 Run: ``python benchmarks/command_postures.py [--sessions 2] [--distractor-frames 3000]
 [--postures asl1,asl2,...] [--seed 300] [--json FILE]``.
@@ -28,6 +30,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 #: Share thresholds reported.
 SHARES = (0.3, 0.4, 0.5, 0.6, 0.7)
+
+
+def _counts(names) -> dict:
+    """How many frames each posture name (None: "none") has."""
+    out = {}
+    for name in names:
+        key = name or "none"
+        out[key] = out.get(key, 0) + 1
+    return out
 
 
 def spans_named(postures, spans):
@@ -82,7 +93,7 @@ def main(argv=None) -> int:
     rows = {}
     for posture in candidates:
         totals = dict(true=0, named=0, correct=0)
-        held = []
+        held, counts = [], []
         for k in range(args.sessions):
             seed = args.seed + k
             rng = np.random.default_rng(seed)
@@ -94,8 +105,9 @@ def main(argv=None) -> int:
                                    clip.sequence)
             for key in totals:
                 totals[key] += score[key]
-            held += [float(np.mean([n == posture for n in span]))
-                     for span in spans_named(names, [(a, b) for _, a, b in clip.sequence])]
+            spans = spans_named(names, [(a, b) for _, a, b in clip.sequence])
+            held += [float(np.mean([n == posture for n in span])) for span in spans]
+            counts += [_counts(span) for span in spans]
         f1 = 2 * totals["correct"] / max(1, totals["true"] + totals["named"])
         false_share = [float(np.mean([n == posture for n in span])) for _, span in distractors]
         rows[posture] = {
@@ -106,7 +118,8 @@ def main(argv=None) -> int:
             "distractors_passing": {str(s): round(float(np.mean([h >= s for h in false_share])),
                                                   3) for s in SHARES},
             "distractor_frames_named": round(float(np.mean(
-                [n == posture for _, span in distractors for n in span])), 4)}
+                [n == posture for _, span in distractors for n in span])), 4),
+            "gesture_counts": counts}
         r = rows[posture]
         print(f"{posture}: F1 {100 * f1:.1f} %, held median {r['held_median']:.2f}; passing at "
               + ", ".join(f"{s}: gestures {r['gestures_passing'][str(s)]:.2f} distractors "
@@ -116,6 +129,7 @@ def main(argv=None) -> int:
               "distractor_frames": args.distractor_frames,
               "distractor_kinds": [k for k, _ in distractors], "postures": rows,
               "stop_runs_in_distractors": runs,
+              "distractor_counts": [[kind, _counts(span)] for kind, span in distractors],
               "cpu_s": round(time.process_time() - started, 1)}
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(report, indent=1) + "\n")

@@ -67,9 +67,9 @@ def render_postures(postures, seeds, *, width: int = 640, height: int = 480,
     tracking in the hard scene) by :func:`present_still`.
     """
     from sim.footage import frame_to_bgr
-    from sim.hand_postures import resolve_posture
+    from sim.hand_postures import resolve_hand
     from sw_hps.posture import decode_posture_words, record_features
-    names = [resolve_posture(p) for p in postures]
+    names = [resolve_hand(p) for p in postures]
     side = int(round(CROP_SHARE * height)) // 2 * 2
     images, masks, features, labels, subjects = [], [], [], [], []
     for done, seed in enumerate(seeds):

@@ -60,7 +60,7 @@ DEFAULT_POSTURE = "asl5"
 #: The posture ``stereogest render`` makes gestures in unless told otherwise:
 #: the shipped continuous model's first command posture (a test keeps them
 #: equal).
-COMMAND_POSTURE = "asl2"
+COMMAND_POSTURE = "asl1"
 #: Hands that are no posture class: what a hand does between commands
 #: (:mod:`sim.distractors`): loosely bent fingers, fingers curled apart to
 #: scratch, fingers and thumb closing round a cup.

@@ -275,5 +275,30 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], (args, err)
         assert path.read_bytes() == before          # nothing half-written
+    assert main(["posture-commands", str(path), "--table"]) == 0
+    table = capsys.readouterr().out.splitlines()
+    # every class in each command posture, then the stop posture
+    assert len([row for row in table if row.startswith("| ")]) == 1 + 7 * 2 + 1
+    assert "| right | asl3 | turn right (pivot), then forward | 60 | `09 00 80 09 00 05 33 " \
+        "30 36 30 00` |" in table
+    assert table[-1] == "| (held 3 frames) | fist | stop both motors | - | " \
+        "`06 00 80 09 00 02 37 00` |"
     assert main(["posture-commands", str(path), "--clear"]) == 0
     assert load_models(path).postures is None
+
+
+def test_the_renderer_makes_gestures_in_the_shipped_command_posture():
+    """`render` and `demo` make gestures in COMMAND_POSTURE: the shipped
+    continuous model's first command posture, and make model sets the same."""
+    from pathlib import Path
+
+    from sim.hand_postures import COMMAND_POSTURE, extended_fingers
+    from stereogest.pipeline_outputs import shipped_model_path
+    from sw_hps.hmm import load_models
+    options = load_models(shipped_model_path("continuous")).postures
+    assert options is not None and options["command"][0] == COMMAND_POSTURE
+    make = (Path(__file__).resolve().parents[1] / "Makefile").read_text()
+    assert f"COMMAND_POSTURES := {','.join(options['command'])}" in make
+    assert f"STOP_POSTURE     := {options['stop']}" in make
+    # the power is the extended fingers' (posture-commands --power fingers)
+    assert options["power"] == {p: 20 * extended_fingers(p) for p in options["command"]}

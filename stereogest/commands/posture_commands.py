@@ -37,6 +37,9 @@ def add_arguments(p):
                    help="posture classifier whose classes the postures must be "
                         "(default: the one shipped in sw_hps/models)")
     p.add_argument("--clear", action="store_true", help="remove the postures entry")
+    p.add_argument("--table", action="store_true",
+                   help="print the commands the model knows (every gesture class in every "
+                        "command posture, with its power and telegram) as a Markdown table")
     add_json_switch(p)
 
 
@@ -115,6 +118,32 @@ def run(args) -> int:
                  if entry["stop"] else ", no stop posture")
               + (", power " + ", ".join(f"{k} {v}" for k, v in power.items()) if power
                  else ""))
+    if args.table:
+        print(command_table(models.class_names, entry))
     if args.json:
         print(json.dumps({"model": str(args.model), "postures": entry}))
     return 0
+
+
+def command_table(class_names, entry) -> str:
+    """Every gesture class in every command posture: the robot's action, the
+    power and the NXT telegram, as a Markdown table; then the stop posture's."""
+    from sw_hps.telegram import GESTURE_NAMES, ROBOT_ACTIONS, telegram
+    postures = (entry or {}).get("command") or [None]
+    power = (entry or {}).get("power") or {}
+    lines = ["| gesture | posture | robot action | power | telegram |", "|---|---|---|---|---|"]
+    for name in class_names:
+        for posture in postures:
+            level = power.get(posture)
+            if name in GESTURE_NAMES:
+                action = ROBOT_ACTIONS[GESTURE_NAMES.index(name)]
+                code = telegram(name, power=level).hex(" ")
+            else:
+                action, code = "none (not a robot gesture)", "-"
+            lines.append(f"| {name} | {posture or 'any'} | {action} | "
+                         f"{'-' if level is None else level} | `{code}` |")
+    if entry is not None and entry["stop"] is not None:
+        lines.append(f"| (held {entry['stop_frames']} frames) | {entry['stop']} | "
+                     f"{ROBOT_ACTIONS[GESTURE_NAMES.index('stop')]} | - | "
+                     f"`{telegram('stop').hex(' ')}` |")
+    return "\n".join(lines)

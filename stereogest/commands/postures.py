@@ -22,15 +22,17 @@ _PEOPLE_RANGE = (1, 10_000)
 
 def add_arguments(p):
     from sim.difficulties import SCENES
-    from sim.hand_postures import POSTURE_NAMES
+    from sim.hand_postures import HAND_SHAPE_NAMES
     p.add_argument("-o", "--output", metavar="DATA.npz", required=True,
                    help="file to write (replaced if it exists)")
     p.add_argument("--people", type=int, default=10,
                    help=f"persons, {_PEOPLE_RANGE[0]}..{_PEOPLE_RANGE[1]}")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED,
                    help="the first person's seed (>= 0); the others follow it")
-    p.add_argument("--postures", metavar="LIST", default=",".join(POSTURE_NAMES),
-                   help="comma-separated postures (asl0..asl9, fist; open, point, v)")
+    p.add_argument("--postures", metavar="LIST", default=",".join(HAND_SHAPE_NAMES),
+                   help="comma-separated postures (asl0..asl9, fist; open, point, v) and "
+                        "hands that are no posture (relaxed, claw, grasp: what a hand does "
+                        "between commands)")
     p.add_argument("--scene", choices=SCENES, default="easy",
                    help="hard: every difficulty, each person's skin tone and hand size, "
                         "the pipeline with hand tracking")
@@ -45,13 +47,13 @@ def run(args) -> int:
 
     from recognition.datasets import save_npz
     from recognition.posture_renders import render_postures
-    from sim.hand_postures import resolve_posture
+    from sim.hand_postures import resolve_hand
     from sim.model.validation import check_int
     check_int("--people", args.people, *_PEOPLE_RANGE)
     check_int("--seed", args.seed, 0, 2 ** 63 - 1 - args.people)
     names = [n.strip() for n in args.postures.split(",")]
     try:
-        names = [resolve_posture(n) for n in names]
+        names = [resolve_hand(n) for n in names]
     except ValueError as exc:
         raise ValueError(f"--postures: {exc}") from None
     if len(set(names)) != len(names):
