@@ -65,7 +65,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=str(ROOT / "build" / "command_postures.json"))
     args = ap.parse_args(argv)
     candidates = [p.strip() for p in args.postures.split(",")]
-    models = load_board_models(None, "continuous")
+    import dataclasses
+    # the trajectory side alone: the shipped model without its posture commands
+    models = dataclasses.replace(load_board_models(None, "continuous"), postures=None)
     posture_model = load_posture_model()
     params = PipelineParams.for_frame(args.width)
     started = time.process_time()

@@ -104,6 +104,7 @@ def resolve_hand(name) -> str:
 
 
 def extended_fingers(name: str) -> int:
-    """Fingers held out (0-5, thumb included when it is out)."""
-    posture = POSTURES[resolve_posture(name)]
+    """Fingers held out (0-5, thumb included when it is out) of a posture or
+    another hand of :data:`HAND_SHAPES`."""
+    posture = HAND_SHAPES[resolve_hand(name)]
     return sum(e >= 0.9 for e in posture.extension) + (posture.thumb == "out")

@@ -67,9 +67,10 @@ class LiveSession:
         if getattr(models, "postures", None) is not None:
             if posture_model is None:
                 raise ValueError("the model file's postures entry needs a posture model")
-            if spotting == "thesis":
-                from sw_hps.posture_commands import PostureCommands
-                self._commands = PostureCommands(models.postures)
+            from sw_hps.posture_commands import PostureCommands, postures_for_frame
+            postures = postures_for_frame(models.postures, 640 if width is None else width)
+            if spotting == "thesis" and postures is not None:
+                self._commands = PostureCommands(postures)
         self.lock = threading.Lock()
         self.frames = 0
         self.recognised: list[dict] = []

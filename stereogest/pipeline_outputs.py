@@ -193,7 +193,8 @@ def spot(models, posture_model, trajectory, frame_width: int, spotting: str) -> 
         postures = frame_postures(posture_model, trajectory) if posture_model is not None \
             else None
         return stream_results(models, trajectory, frame_width, postures=postures)
-    needs = getattr(models, "postures", None) is not None
+    from sw_hps.posture_commands import postures_for_frame
+    needs = postures_for_frame(getattr(models, "postures", None), frame_width) is not None
     return board_results(models, trajectory, posture_model=posture_model if needs else None)
 
 
@@ -265,7 +266,7 @@ def stream_results(models, trajectory, frame_width: int, first_frame: int = 0,
     from sw_hps.streaming import StreamSpotter
     from sw_hps.telegram import GESTURE_NAMES, telegram
     spotter = StreamSpotter(models, frame_width)
-    if postures is None:
+    if postures is None or spotter.commands is None:
         if spotter.commands is not None:
             raise ValueError("the model file's postures entry needs each frame's posture "
                              "(a posture model)")

@@ -149,7 +149,7 @@ from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFa
                        read_id)
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
-from .posture_commands import PostureCommands
+from .posture_commands import MIN_FRAME_WIDTH, PostureCommands, postures_for_frame
 from .robot import FAILED, NullLink, deliver_gesture
 from .telegram import GESTURE_NAMES, hex_bytes
 
@@ -514,6 +514,11 @@ class GestureApp:
         if postures is not None and posture is None:
             raise ValueError("the model file's postures entry needs a posture tracker "
                              "(--posture-model)")
+        if postures is not None and postures_for_frame(postures, frame_width) is None:
+            log.warning("frames %d px wide are too narrow for the posture commands (at least "
+                        "%d): every gesture commands, no stop by posture", frame_width,
+                        MIN_FRAME_WIDTH)
+            postures = None
         self.commands = PostureCommands(postures) if postures is not None else None
 
     # ---- control ----------------------------------------------------------------

@@ -35,8 +35,9 @@ from typing import NamedTuple
 
 from .telegram import POWER_RANGE
 
-__all__ = ["POSTURE_COMMAND_DEFAULTS", "POWER_RANGE", "STOP_FRAMES_RANGE",
-           "check_posture_commands", "check_posture_classes", "PostureCommands", "Verdict"]
+__all__ = ["POSTURE_COMMAND_DEFAULTS", "POWER_RANGE", "STOP_FRAMES_RANGE", "MIN_FRAME_WIDTH",
+           "check_posture_commands", "check_posture_classes", "postures_for_frame",
+           "PostureCommands", "Verdict"]
 
 #: Options of the ``postures`` entry and their defaults.
 POSTURE_COMMAND_DEFAULTS = {"command": [], "share": 0.5, "stop": None, "stop_frames": 3,
@@ -45,6 +46,17 @@ POSTURE_COMMAND_DEFAULTS = {"command": [], "share": 0.5, "stop": None, "stop_fra
 STOP_FRAMES_RANGE = (1, 30)
 #: Frames of postures kept to judge a gesture (a longer one is judged on its last ones).
 KEEP_FRAMES = 1024
+#: Narrowest frame the posture commands apply to: in narrower frames the
+#: fingers are 2-3 px wide and the posture mask's 3x3 opening removes them (at
+#: 320x240 a rendered asl1 hand is named fist), so a model's ``postures`` entry
+#: is set aside there and every gesture commands as without it.
+MIN_FRAME_WIDTH = 640
+
+
+def postures_for_frame(options, frame_width):
+    """The ``postures`` options to apply at ``frame_width`` (None below
+    :data:`MIN_FRAME_WIDTH`)."""
+    return options if options is not None and frame_width >= MIN_FRAME_WIDTH else None
 
 
 def _posture_name(key, value):

@@ -362,7 +362,7 @@ CASES = [
     case("postures", "-o", f"{OUT}/r.npz", "--people", "0", match="--people must be"),
     case("postures", "-o", f"{OUT}/r.npz", "--seed", "-1", match="--seed must be"),
     case("postures", "-o", f"{OUT}/r.npz", "--postures", "fist,wave",
-         match="--postures: posture must be one of"),
+         match="--postures: hand must be one of"),
     case("postures", "-o", f"{OUT}/r.npz", "--postures", "fist,fist",
          match="--postures: each posture once"),
     case("postures", "-o", f"{OUT}/r.npz", "--width", "97", match="width must be even"),
