@@ -123,6 +123,7 @@ def test_the_shipped_posture_model_loads_on_the_board():
     from pathlib import Path
     path = Path(__file__).resolve().parents[1] / "sw_hps" / "models" / "posture.json"
     model = read_posture_model(path)
-    assert model.class_names == ["asl{}".format(k) for k in range(10)] + ["fist"]
+    assert model.class_names == ["asl{}".format(k) for k in range(10)] + [
+        "fist", "relaxed", "claw", "grasp"]
     assert model.features == 176 and len(model.support_vectors) > 100
     assert model.decide(np.zeros((2, 176))).shape == (2,)

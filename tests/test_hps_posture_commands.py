@@ -302,3 +302,22 @@ def test_the_renderer_makes_gestures_in_the_shipped_command_posture():
     assert f"STOP_POSTURE     := {options['stop']}" in make
     # the power is the extended fingers' (posture-commands --power fingers)
     assert options["power"] == {p: 20 * extended_fingers(p) for p in options["command"]}
+
+
+def test_narrow_frames_set_the_posture_commands_aside(models, caplog):
+    from sw_hps.posture_commands import MIN_FRAME_WIDTH, postures_for_frame
+    plain, gated, fixed = models
+    assert postures_for_frame(OPTIONS, MIN_FRAME_WIDTH) is OPTIONS
+    assert postures_for_frame(OPTIONS, MIN_FRAME_WIDTH - 2) is None
+    narrow = StreamSpotter(gated, frame_width=320)
+    assert narrow.commands is None and "too narrow for the posture commands" in caplog.text
+    # every gesture commands there, whatever the postures say (the path scaled to 320)
+    half = [(x // 2, y // 2) for x, y in fixed]
+    names = []
+    for (x, y) in half:
+        names += [c.name for c in narrow.take(int(x), int(y), True, "fist")]
+    plain_spotter = StreamSpotter(plain, frame_width=320)
+    expected = []
+    for (x, y) in half:
+        expected += [c.name for c in plain_spotter.take(int(x), int(y), True)]
+    assert names == expected and names
