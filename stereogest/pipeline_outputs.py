@@ -220,16 +220,20 @@ def board_results(models, trajectory, first_frame: int = 0, posture_model=None) 
     board = run_on_trajectory(models, trajectory.smoothed[:, 0], trajectory.smoothed[:, 1],
                               trajectory.flag, pixels=False, posture_records=records,
                               posture_model=posture_model)
-    return gesture_entries([r.to_dict() for r in board.results], trajectory.flag, first_frame)
+    return gesture_entries([r.to_dict() for r in board.results], trajectory.flag, first_frame,
+                           commands=posture_model is not None)
 
 
-def gesture_entries(results: list[dict], flag, first_frame: int = 0) -> list[dict]:
+def gesture_entries(results: list[dict], flag, first_frame: int = 0,
+                    commands: bool = False) -> list[dict]:
     """The board application's results (``GestureResult.to_dict()``, in order)
     beside the flagged runs of ``flag`` they came from: one entry per gesture,
     with ``outcome`` (recognised, rejected or dropped), ``name`` (None unless
     recognised), ``first`` and ``last`` (its flagged frames, numbered from
     ``first_frame``), ``telegram`` (hex, None unless sent) and ``score`` (the
-    named class' log-likelihood, None unless recognised)."""
+    named class' log-likelihood, None unless recognised); with ``commands``
+    (the application applied posture commands) also the verdict's
+    ``posture``, ``posture_share``, ``power`` and ``by_posture``."""
     spans = flagged_spans(flag)
     # the application finishes one gesture per flagged run, in order (a stop by
     # posture is no flagged run)
@@ -248,8 +252,9 @@ def gesture_entries(results: list[dict], flag, first_frame: int = 0) -> list[dic
             "last": None if last is None else last + first_frame,
             "telegram": r["telegram"] if r["sent"] else None,
             "score": None if score is None else round(float(score), 3),
+            # the posture commands' verdict (without them add_postures names the posture)
             **{key: r[key] for key in ("posture", "posture_share", "power", "by_posture")
-               if r.get(key) not in (None, False)}})
+               if commands and r.get(key) not in (None, False)}})
     return out
 
 

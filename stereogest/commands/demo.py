@@ -275,7 +275,9 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         if continuous:
             entries = [dict(r, outcome="recognised") for r in result.results]
         else:
-            entries = gesture_entries(result.results, trajectory.flag)
+            from sw_hps.posture_commands import postures_for_frame
+            entries = gesture_entries(result.results, trajectory.flag, commands=postures_for_frame(
+                getattr(models, "postures", None), clip.width) is not None)
         gestures = add_postures(recognised_gestures(entries), postures)
         # the application on the hardware names what it names on the model's records
         agree = recognised_gestures(entries) == recognised_gestures(model_results)
