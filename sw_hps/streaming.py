@@ -92,17 +92,11 @@ def check_streaming_models(models):
 
 
 @dataclass(frozen=True)
-class Command:
-    """What :class:`StreamSpotter` names: a gesture (the fields of
+class Command(Detection):
+    """What :class:`StreamSpotter` names: a gesture (a
     :class:`~sw_hps.continuous.Detection`) that commands, or a stop by posture
     (``by_posture``: ``first`` is the first frame of the stop posture,
     ``last`` and ``named_at`` the frame it fired at, ``score`` 0)."""
-    class_index: int
-    name: str
-    first: int
-    last: int
-    score: float
-    named_at: int
     #: the command posture held over it and the share of its frames in a
     #: command posture (None without posture commands)
     posture: str | None = None
