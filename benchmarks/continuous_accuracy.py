@@ -39,7 +39,7 @@ RUNS = {
                                         "5400", "--scene", "hard"]),
     "sessions-640": ("continuous_sessions.py",
                      ["--distractors", "--idle-frames", "18000", "--idle-clip", "600",
-                      "--width", "640", "--height", "480"]),
+                      "--width", "640", "--height", "480", "--stops", "20"]),
     "dollar": ("continuous_recognition.py", ["--data", "dollar"]),
     "dollar-distractors": ("continuous_recognition.py",
                            ["--data", "dollar", "--distractors", "--idle-steps", "18000"]),
@@ -53,6 +53,12 @@ TARGETS = (
      "idle_per_10_min", "<=", 1.0),
     ("median latency <= 10 frames (640x480)", "sessions-640", "latency_median", "<=", 10),
     ("95th percentile latency <= 10 frames (640x480)", "sessions-640", "latency_p95", "<=", 10),
+    ("stop posture: median latency <= 10 frames from its first frame (640x480)",
+     "sessions-640", "stop_latency_median", "<=", 10),
+    ("stop posture: 95th percentile latency <= 10 frames (640x480)", "sessions-640",
+     "stop_latency_p95", "<=", 10),
+    ("stop posture: every hold stopped (640x480)", "sessions-640", "stops_missed", "<=", 0),
+    ("no stop on distractors (640x480)", "sessions-640", "idle_stops", "<=", 0),
     ("F1 >= 98 % (rendered 320x240, distractors)", "sessions-distractors", "f1", ">=", 0.98),
     ("false commands <= 1 per 10 min (320x240)", "sessions-distractors", "idle_per_10_min",
      "<=", 1.0),
@@ -80,7 +86,13 @@ def figures(report: dict) -> dict:
     overall = report.get("overall", report)        # continuous_recognition nests them
     idle = report.get("idle") or {}
     isolated = report.get("isolated")
-    return {"f1": overall.get("f1") if overall.get("gestures", overall.get("true")) else None,
+    stops = report.get("stops")
+    return {"stop_latency_median": stops["latency_median_frames"] if stops else None,
+            "stop_latency_p95": stops["latency_p95_frames"] if stops else None,
+            "stops_missed": stops["holds"] - stops["stopped"] if stops else None,
+            "idle_stops": sum(n for kind, n in idle.get("by_distractor", {}).items()
+                              if kind.endswith("(stop posture)")) if idle else None,
+            "f1": overall.get("f1") if overall.get("gestures", overall.get("true")) else None,
             "idle_per_10_min": idle.get("false_commands_per_10_min"),
             "latency_median": overall.get("latency_median_frames"),
             "latency_p95": overall.get("latency_p95_frames"),
@@ -96,6 +108,10 @@ def _shown(figure: str, value) -> str:
         return f"{value:.1f} per 10 min"
     if figure == "isolated_wrong":
         return f"{value:g} clips wrong"
+    if figure == "stops_missed":
+        return f"{value:g} holds missed"
+    if figure == "idle_stops":
+        return f"{value:g} stops"
     return f"{value:g} frames"
 
 

@@ -60,6 +60,13 @@ class CVOutcome:
     def rejection_rate(self) -> float:
         return float((self.decided < 0).mean())
 
+    def refused_by(self, groups) -> dict:
+        """Share of each group's (subject's, writer's) true gestures refused:
+        {group: share}."""
+        groups = np.asarray(groups)
+        return {str(g): float((self.decided[groups == g] < 0).mean())
+                for g in np.unique(groups)}
+
     @property
     def fold_accuracy(self) -> list[float]:
         return [float((self.decided[self.fold == f] == self.truth[self.fold == f]).mean())

@@ -17,9 +17,13 @@ the training data is split into ``calibration_folds`` groups of subjects
 (or stratified folds without subjects), each group is scored by models
 trained on the others, and a class' threshold is the ``reject_quantile``
 quantile of the per-step scores of its correctly classified held-out
-samples, less ``reject_margin``: new people score lower than the held-out
-groups of the calibration, and every refused gesture is an error (how the
-margin was chosen, with its figures: README, "Rejection").
+samples, less a margin: new people score lower than the held-out groups of
+the calibration, and every refused gesture is an error. The margin
+(``reject_margin``, or chosen when it is None) is the smallest of
+:data:`MARGIN_GRID` with which thresholds from all groups but one refuse at
+most ``reject_budget`` of that group's gestures, for every group: it grows
+with how far apart the training subjects are, which is what a new person's
+distance is estimated from.
 """
 from __future__ import annotations
 
@@ -37,15 +41,21 @@ from recognition.hmm_train import (DEFAULT_EXPECTED_LENGTH, DEFAULT_MAX_ITER, DE
 from sw_hps.hmm import EMISSIONS
 from sw_hps.stroke import RESAMPLE_RANGE as STROKE_RESAMPLE_RANGE
 
-__all__ = ["EMISSIONS", "DEFAULT_EMISSION", "DEFAULT_REJECT_QUANTILE", "Recogniser",
-           "fold_of_groups"]
+__all__ = ["EMISSIONS", "DEFAULT_EMISSION", "DEFAULT_REJECT_QUANTILE", "DEFAULT_REJECT_MARGIN",
+           "DEFAULT_REJECT_BUDGET",
+           "MARGIN_GRID", "Recogniser", "fold_of_groups"]
 
 #: The best emission model (README table): what ``stereogest train`` uses.
 DEFAULT_EMISSION = "gaussian"
 #: Quantile of held-out in-vocabulary per-step scores below which a gesture is refused...
 DEFAULT_REJECT_QUANTILE = 0.005
-#: ...less this margin (per-step log-likelihood).
+#: ...less this margin (per-step log-likelihood); None: chosen from the
+#: calibration groups (module docstring; README "Rejection" has both measured).
 DEFAULT_REJECT_MARGIN = 1.5
+#: Share of a held-out calibration group's gestures the chosen margin may refuse.
+DEFAULT_REJECT_BUDGET = 0.005
+#: Margins tried when the margin is chosen (per-step log-likelihood).
+MARGIN_GRID = tuple(0.25 * k for k in range(25))
 #: Groups of subjects used to calibrate the thresholds.
 DEFAULT_CALIBRATION_FOLDS = 3
 #: States of the discrete models when not given (thesis §9.4).
@@ -84,8 +94,12 @@ class Recogniser:
         Calibrate rejection thresholds.
     reject_quantile : float
         In [0, 0.5).
-    reject_margin : float
-        >= 0, subtracted from the quantile.
+    reject_margin : float or None
+        >= 0, subtracted from the quantile; None: the smallest of
+        :data:`MARGIN_GRID` that refuses at most ``reject_budget`` of every
+        held-out calibration group's gestures.
+    reject_budget : float
+        In [0, 0.5).
     calibration_folds : int
         >= 2.
     tol, max_iter, expected_length : float, int, int or None
@@ -100,7 +114,8 @@ class Recogniser:
     emission_floor: float = 0.0
     reject: bool = True
     reject_quantile: float = DEFAULT_REJECT_QUANTILE
-    reject_margin: float = DEFAULT_REJECT_MARGIN
+    reject_margin: float | None = DEFAULT_REJECT_MARGIN
+    reject_budget: float = DEFAULT_REJECT_BUDGET
     calibration_folds: int = DEFAULT_CALIBRATION_FOLDS
     tol: float = DEFAULT_TOL
     max_iter: int = DEFAULT_MAX_ITER
@@ -118,9 +133,12 @@ class Recogniser:
                              f"models, got {self.resample}")
         if not 0.0 <= self.reject_quantile < 0.5:
             raise ValueError(f"reject_quantile must be in [0, 0.5), got {self.reject_quantile}")
-        if not (self.reject_margin >= 0 and np.isfinite(self.reject_margin)):
-            raise ValueError(f"reject_margin must be a finite number >= 0, got "
+        if self.reject_margin is not None and not (self.reject_margin >= 0
+                                                   and np.isfinite(self.reject_margin)):
+            raise ValueError(f"reject_margin must be a finite number >= 0 or None, got "
                              f"{self.reject_margin}")
+        if not 0.0 <= self.reject_budget < 0.5:
+            raise ValueError(f"reject_budget must be in [0, 0.5), got {self.reject_budget}")
         if self.calibration_folds < 2:
             raise ValueError(f"calibration_folds must be >= 2, got {self.calibration_folds}")
 
@@ -177,7 +195,8 @@ class Recogniser:
         names = tuple(class_names)
         labels = np.asarray([str(x) for x in labels])
         fold = fold_of_groups(labels, groups, self.calibration_folds)
-        held_scores = [[] for _ in names]
+        # per held-out sample: its group, best class, that class' per-step score, right?
+        held = []
         for f in np.unique(fold):
             train = fold != f
             present = set(labels[train].tolist())
@@ -190,22 +209,62 @@ class Recogniser:
             test = np.flatnonzero(~train)
             scores, steps = self.scores(models, [samples[i] for i in test])
             for i, row, n in zip(test, scores, steps):
-                truth = names.index(labels[i])
-                if n > 0 and np.isfinite(row[truth]) and int(np.argmax(row)) == truth:
-                    held_scores[truth].append(row[truth] / n)
-        thresholds = []
-        for c, values in enumerate(held_scores):
-            if not values:
+                if n > 0 and np.isfinite(row).any():
+                    best = int(np.argmax(row))
+                    held.append((int(f), best, row[best] / n, best == names.index(labels[i])))
+        group = np.array([h[0] for h in held], dtype=np.int64)
+        best = np.array([h[1] for h in held], dtype=np.int64)
+        score = np.array([h[2] for h in held], dtype=np.float64)
+        right = np.array([h[3] for h in held], dtype=bool)
+        quantiles = self._quantiles(best, score, right, len(names))
+        for c, q in enumerate(quantiles):
+            if q is None:
                 raise ValueError(f"cannot calibrate rejection: class {names[c]!r} has no "
                                  "correctly classified held-out sample (use --no-reject)")
-            thresholds.append(float(np.quantile(values, self.reject_quantile))
-                              - self.reject_margin)
+        if self.reject_margin is None:
+            margin, worst = self._choose_margin(group, best, score, right, len(names))
+        else:
+            margin, worst = self.reject_margin, None
+        thresholds = [q - margin for q in quantiles]
         info = {"statistic": "per-step log-likelihood", "quantile": self.reject_quantile,
-                "margin": self.reject_margin,
+                "margin": margin, "margin_chosen": self.reject_margin is None,
+                "budget": self.reject_budget if self.reject_margin is None else None,
+                "worst_group_refused": worst,
                 "folds": int(fold.max()) + 1,
                 "grouped": groups is not None,
-                "held_out_samples": [len(v) for v in held_scores]}
+                "held_out_samples": [int(((best == c) & right).sum())
+                                     for c in range(len(names))]}
         return thresholds, info
+
+    def _quantiles(self, best, score, right, classes: int) -> list:
+        """Per class the ``reject_quantile`` of its correctly classified held-out
+        scores (None: it has none)."""
+        out = []
+        for c in range(classes):
+            values = score[(best == c) & right]
+            out.append(float(np.quantile(values, self.reject_quantile)) if values.size else None)
+        return out
+
+    def _choose_margin(self, group, best, score, right, classes: int):
+        """The smallest margin of :data:`MARGIN_GRID` with which the thresholds
+        of every group but one refuse at most ``reject_budget`` of that
+        group's held-out gestures; and the worst group's refused share with it
+        (the largest margin when none is enough)."""
+        margins = np.asarray(MARGIN_GRID)
+        worst = np.zeros(margins.size)
+        for f in np.unique(group):
+            others = group != f
+            quantiles = self._quantiles(best[others], score[others], right[others], classes)
+            mine = np.flatnonzero(~others)
+            usable = [i for i in mine if quantiles[best[i]] is not None]
+            if not usable:
+                continue
+            level = np.array([quantiles[best[i]] for i in usable])
+            refused = (score[usable][:, None] < level[:, None] - margins[None, :]).sum(axis=0)
+            worst = np.maximum(worst, refused / mine.size)
+        ok = np.flatnonzero(worst <= self.reject_budget)
+        k = int(ok[0]) if ok.size else margins.size - 1
+        return float(margins[k]), float(worst[k])
 
     # ---- scoring --------------------------------------------------------------------
     def scores(self, models, samples) -> tuple[np.ndarray, np.ndarray]:

@@ -397,6 +397,8 @@ CASES = [
                             ("--resample", "0"), ("--max-iter", "0"), ("--tol", "-1"),
                             ("--tol", "nan"), ("--reject-quantile", "-0.5"),
                             ("--reject-quantile", "2"), ("--reject-margin", "-1"),
+                            ("--reject-margin", "some"),
+                            ("--reject-margin", "inf"), ("--reject-budget", "0.5"),
                             ("--emission-floor", "-1"), ("--seed", "-1"), ("--jobs", "0"),
                             ("--cv-states", "x"), ("--cv-states", "5-2"),
                             ("--expected-length", "0")]],

@@ -193,7 +193,10 @@ def test_continuous_accuracy_judges_each_target_from_either_report(tmp_path, cap
     bench = load_script("continuous_accuracy")
     sessions = {"true": 80, "f1": 0.985, "latency_median_frames": 3.0,
                 "latency_p95_frames": 12.0, "isolated": None,
-                "idle": {"false_commands_per_10_min": 0.5}}
+                "stops": {"holds": 20, "stopped": 20, "latency_median_frames": 4.0,
+                          "latency_p95_frames": 11.0},
+                "idle": {"false_commands_per_10_min": 0.5,
+                         "by_distractor": {"reach (stop posture)": 1, "wave": 2}}}
     corpus = {"overall": {"gestures": 280, "f1": 0.97, "latency_median_frames": -20.0,
                           "latency_p95_frames": -9.0}, "idle": None}
     (tmp_path / "sessions-640.json").write_text(json.dumps(sessions))
@@ -208,6 +211,11 @@ def test_continuous_accuracy_judges_each_target_from_either_report(tmp_path, cap
     assert rows["sessions-640", "idle_per_10_min"]["met"] is True
     assert rows["sessions-640", "latency_median"]["met"] is True
     assert rows["sessions-640", "latency_p95"]["met"] is False
+    assert rows["sessions-640", "stop_latency_median"]["met"] is True
+    assert rows["sessions-640", "stop_latency_p95"]["met"] is False
+    assert rows["sessions-640", "stops_missed"]["measured"] == "0 holds missed"
+    assert rows["sessions-640", "idle_stops"]["met"] is False      # the reach's stop
+    assert bench.figures(corpus)["stops_missed"] is None and bench.figures(corpus)["idle_stops"] is None
     assert rows["corpus", "f1"]["met"] is False and rows["corpus", "f1"]["measured"] == "97.00 %"
     assert rows["sessions", "isolated_wrong"]["met"] is False
     assert rows["hard", "f1"]["measured"] == "not run" and rows["hard", "f1"]["met"] is None

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from recognition.recogniser import MARGIN_GRID
 from recognition.datasets import TrajectorySet, save_trajectories
 from recognition.features import sequences
 from sw_hps.gaussian_hmm import GaussianGestureModels
@@ -179,6 +180,7 @@ def test_train_gaussian_camera_front_end(tmp_path, capsys):
     assert status == 0, err
     summary = json.loads(out)
     assert summary["rejection"]["grouped"] is False and summary["rejection"]["folds"] == 3
+    assert summary["rejection"]["margin"] == 1.5 and not summary["rejection"]["margin_chosen"]
     models = load_models(model)
     assert models.meta["resample"] is None and models.meta["front_end"] == "camera"
     assert models.resample == 64                      # the default feature resampling
@@ -393,3 +395,19 @@ def test_gaussian_train_errors_name_the_option(tmp_path, capsys, dataset, argv, 
     assert status == 2
     assert_one_line_error(err, "train", *words)
     assert not model.exists()
+
+
+def test_train_chooses_the_margin_with_reject_margin_auto(tmp_path, capsys, dataset):
+    """--reject-margin auto: the margin is one of the grid, chosen for the budget,
+    and the thresholds are the fixed-margin ones moved by the difference."""
+    fixed, auto = tmp_path / "fixed.json", tmp_path / "auto.json"
+    status, _, err = run(capsys, "train", dataset, "-o", fixed, *GAUSSIAN, "--reject-margin", "0")
+    assert status == 0, err
+    status, out, err = run(capsys, "train", dataset, "-o", auto, *GAUSSIAN,
+                           "--reject-margin", "auto", "--reject-budget", "0.01")
+    assert status == 0, err
+    rejection = json.loads(out.strip().splitlines()[-1])["rejection"]
+    assert rejection["margin_chosen"] and rejection["budget"] == 0.01
+    assert rejection["margin"] in MARGIN_GRID and 0 <= rejection["worst_group_refused"] <= 1
+    shift = np.array(load_models(fixed).thresholds) - np.array(load_models(auto).thresholds)
+    assert np.allclose(shift, rejection["margin"])

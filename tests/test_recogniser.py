@@ -14,7 +14,7 @@ from recognition.evaluation import (CVOutcome, confusion_png, grouped_cross_vali
 from recognition.gaussian_train import (MAX_AUTO_COMPONENTS, SAMPLES_PER_COMPONENT,
                                         baum_welch_gaussian, default_components,
                                         train_gaussian_models)
-from recognition.recogniser import Recogniser, fold_of_groups
+from recognition.recogniser import MARGIN_GRID, Recogniser, fold_of_groups
 from sw_hps.gaussian_hmm import (GaussianGestureModels, GaussianHMM, forward_log_likelihood,
                                  log_emissions)
 from sw_hps.stroke import FEATURE_NAMES, stroke_features
@@ -220,6 +220,7 @@ def test_fit_calibrates_one_threshold_per_class(fitted):
     assert all(np.isfinite(models.thresholds))
     info = models.meta["rejection"]
     assert info["folds"] == 3 and info["grouped"] and info["quantile"] == 0.005
+    assert info["margin"] == 1.5 and not info["margin_chosen"]
     assert sum(info["held_out_samples"]) <= len(data) and min(info["held_out_samples"]) > 0
     assert models.meta["recogniser"]["states"] == 4
     assert RECOGNISER.fit(RECOGNISER.samples(data), data.label, data.class_names,
@@ -246,6 +247,46 @@ def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
                 lowest[truth] = min(lowest[truth], row[truth] / 15)
     assert np.allclose(np.array(thresholds) + 0.25, lowest, rtol=1e-12)
     assert info["quantile"] == 0.0 and info["margin"] == 0.25
+
+
+def test_chosen_margin_is_the_smallest_that_spares_every_held_out_subject(fitted):
+    """reject_margin None: brute force over the margins with each subject's
+    held-out scores and thresholds from the other subjects' (quantile 0: their
+    lowest right score); the chosen margin is the first that refuses at most
+    the budget of every subject, and the thresholds use it."""
+    data, samples, _ = fitted
+    names = data.class_names
+    held = []                                  # subject, best class, per-step score, right
+    for subject in range(3):
+        train = data.subject != subject
+        models = train_gaussian_models([s for s, k in zip(samples, train) if k],
+                                       data.label[train], names, num_states=4, components=1,
+                                       resample=16)
+        for i in np.flatnonzero(~train):
+            row = models.scores_of_features(samples[i])
+            best = int(np.argmax(row))
+            held.append((subject, best, row[best] / 15, best == names.index(data.label[i])))
+    for budget in (0.0, 0.2):
+        worst_of = {}
+        for margin in MARGIN_GRID:
+            worst = 0.0
+            for subject in range(3):
+                lowest = [min([s for h, b, s, ok in held if h != subject and b == c and ok],
+                              default=None) for c in range(3)]
+                mine = [(b, s) for h, b, s, _ in held if h == subject]
+                refused = sum(lowest[b] is not None and s < lowest[b] - margin for b, s in mine)
+                worst = max(worst, refused / len(mine))
+            worst_of[margin] = worst
+        expected = next((m for m in MARGIN_GRID if worst_of[m] <= budget), MARGIN_GRID[-1])
+        recogniser = replace(RECOGNISER, reject_quantile=0.0, reject_margin=None,
+                             reject_budget=budget)
+        thresholds, info = recogniser.calibrate(samples, data.label, data.class_names,
+                                                data.subject)
+        assert info["margin"] == expected and info["margin_chosen"]
+        assert info["worst_group_refused"] == pytest.approx(worst_of[expected])
+        lowest = [min(s for _, b, s, ok in held if b == c and ok) for c in range(3)]
+        assert np.allclose(np.array(thresholds) + expected, lowest, rtol=1e-12)
+    assert any(worst_of[m] > 0 for m in MARGIN_GRID)          # the margin has work to do
 
 
 def test_held_out_gestures_are_accepted_and_a_random_walk_refused(fitted):

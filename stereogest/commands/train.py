@@ -51,7 +51,8 @@ def add_arguments(p):
     from recognition.gaussian_train import MAX_AUTO_COMPONENTS as _MAX_AUTO
     from recognition.gaussian_train import SAMPLES_PER_COMPONENT as _PER_COMPONENT
     from recognition.recogniser import (DEFAULT_CALIBRATION_FOLDS, DEFAULT_EMISSION,
-                                        DEFAULT_REJECT_MARGIN, DEFAULT_REJECT_QUANTILE,
+                                        DEFAULT_REJECT_BUDGET, DEFAULT_REJECT_MARGIN,
+                                        DEFAULT_REJECT_QUANTILE,
                                         EMISSIONS)
     p.add_argument("--emission", choices=EMISSIONS, default=DEFAULT_EMISSION,
                    help=f"emission model (default {DEFAULT_EMISSION})")
@@ -68,9 +69,13 @@ def add_arguments(p):
                    metavar="Q", help="refuse below this quantile of held-out in-vocabulary "
                                      f"per-step scores, 0 <= Q < 0.5 (default "
                                      f"{DEFAULT_REJECT_QUANTILE})")
-    p.add_argument("--reject-margin", type=float, default=DEFAULT_REJECT_MARGIN, metavar="M",
-                   help="less this margin (per-step log-likelihood), >= 0 (default "
-                        f"{DEFAULT_REJECT_MARGIN})")
+    p.add_argument("--reject-margin", default=str(DEFAULT_REJECT_MARGIN), metavar="M",
+                   help="less this margin (per-step log-likelihood), >= 0, or auto: the "
+                        "smallest that refuses at most --reject-budget of every held-out "
+                        f"calibration group's gestures (default {DEFAULT_REJECT_MARGIN})")
+    p.add_argument("--reject-budget", type=float, default=DEFAULT_REJECT_BUDGET, metavar="B",
+                   help="with --reject-margin auto, the share of a held-out group's gestures "
+                        f"the margin may refuse, 0 <= B < 0.5 (default {DEFAULT_REJECT_BUDGET})")
     p.add_argument("--calibration-folds", type=int, default=DEFAULT_CALIBRATION_FOLDS,
                    metavar="K", help="groups of subjects held out to calibrate the "
                                      f"rejection, >= 2 (default {DEFAULT_CALIBRATION_FOLDS})")
@@ -180,8 +185,19 @@ def _check_options(args) -> list[int] | None:
         raise ValueError(f"--components must be in 1..16, got {args.components}")
     if not 0.0 <= args.reject_quantile < 0.5:
         raise ValueError(f"--reject-quantile must be in [0, 0.5), got {args.reject_quantile}")
-    if not (math.isfinite(args.reject_margin) and args.reject_margin >= 0):
-        raise ValueError(f"--reject-margin must be a finite number >= 0, got {args.reject_margin}")
+    if args.reject_margin == "auto":
+        args.reject_margin = None
+    else:
+        try:
+            margin = float(args.reject_margin)
+        except ValueError:
+            margin = math.nan
+        if not (math.isfinite(margin) and margin >= 0):
+            raise ValueError(f"--reject-margin must be auto or a finite number >= 0, got "
+                             f"{args.reject_margin}")
+        args.reject_margin = margin
+    if not 0.0 <= args.reject_budget < 0.5:
+        raise ValueError(f"--reject-budget must be in [0, 0.5), got {args.reject_budget}")
     if args.calibration_folds < 2:
         raise ValueError(f"--calibration-folds must be >= 2, got {args.calibration_folds}")
     if gaussian:
@@ -338,6 +354,7 @@ def run(args) -> int:
                                 max_iter=args.max_iter, expected_length=args.expected_length,
                                 reject_quantile=args.reject_quantile,
                                 reject_margin=args.reject_margin,
+                                reject_budget=args.reject_budget,
                                 calibration_folds=args.calibration_folds)
         thresholds, calibration = recogniser.calibrate(
             seqs, data.label, data.class_names, groups if groups is not None else data.subject,
@@ -364,6 +381,7 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
                             components=args.components, reject=args.reject,
                             reject_quantile=args.reject_quantile,
                             reject_margin=args.reject_margin,
+                            reject_budget=args.reject_budget,
                             calibration_folds=args.calibration_folds)
     front_end = "camera" if args.resample is None else f"pen, resampled to {args.resample}"
     say(f"{len(data)} trajectories, classes {', '.join(data.class_names)}; "
