@@ -57,7 +57,7 @@ MODEL  ?= sw_hps/models/gestures7.json
 COMMAND_POSTURES := asl1,asl2,asl3,asl4
 COMMAND_SHARE    := 0.5
 STOP_POSTURE     := fist
-STOP_FRAMES      := 3
+STOP_FRAMES      := 6
 BUNDLE := build/stereogest-hps.tar.gz
 
 model: $(STAMP)

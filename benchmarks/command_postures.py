@@ -16,7 +16,8 @@ gesture's and distractor's count of frames per posture name (to judge a set
 of command postures at any share).
 
 Run: ``python benchmarks/command_postures.py [--sessions 2] [--distractor-frames 3000]
-[--postures asl1,asl2,...] [--seed 300] [--json FILE]``.
+[--distractor-clips 1] [--distractor-command POSTURE] [--postures asl1,asl2,...]
+[--seed 300] [--json FILE]``.
 """
 from __future__ import annotations
 
@@ -56,7 +57,13 @@ def main(argv=None) -> int:
                                              stream_results)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sessions", type=int, default=2)
-    ap.add_argument("--distractor-frames", type=int, default=3000)
+    ap.add_argument("--distractor-frames", type=int, default=3000,
+                    help="frames per clip of distractors alone")
+    ap.add_argument("--distractor-clips", type=int, default=1,
+                    help="clips of distractors alone (scene seeds --seed + 50 onwards)")
+    ap.add_argument("--distractor-command", default=None, metavar="POSTURE",
+                    help="make a share of the distractors in this posture, as the "
+                         "continuous benchmarks do (default: none)")
     ap.add_argument("--postures", default=",".join(n for n in POSTURE_NAMES if n != "fist"))
     ap.add_argument("--seed", type=int, default=300)
     ap.add_argument("--stop", default="fist", help="the stop posture (runs in distractors)")
@@ -77,11 +84,15 @@ def main(argv=None) -> int:
         return trajectory, frame_postures(posture_model, trajectory)
 
     # distractors alone: each one's frames' posture names
-    clip = render_sequence([], args.seed + 50, args.width, args.height, distractors=True,
-                           frames=args.distractor_frames, command=None)
-    _, names = through(clip)
-    distractors = [(kind, names[a:b + 1]) for kind, a, b in clip.distractors]
-    print(f"{len(distractors)} distractors in {args.distractor_frames} frames", flush=True)
+    distractors = []
+    for k in range(args.distractor_clips):
+        clip = render_sequence([], args.seed + 50 + k, args.width, args.height,
+                               distractors=True, frames=args.distractor_frames,
+                               command=args.distractor_command)
+        _, names = through(clip)
+        distractors += [(kind, names[a:b + 1]) for kind, a, b in clip.distractors]
+    print(f"{len(distractors)} distractors in {args.distractor_clips} x "
+          f"{args.distractor_frames} frames", flush=True)
     # the stop posture: the longest run of frames named it in each distractor
     runs = {}
     for kind, span in distractors:
@@ -91,9 +102,10 @@ def main(argv=None) -> int:
             longest = max(longest, run)
         runs.setdefault(kind, []).append(longest)
     print(f"{args.stop} in a row in the distractors, longest per kind: "
-          + ", ".join(f"{k} {max(v)}" for k, v in runs.items()), flush=True)
+          + ", ".join(f"{k} {max(v)}" for k, v in runs.items()) + "; every distractor's: "
+          + ", ".join(f"{k} {sorted(v)}" for k, v in runs.items()), flush=True)
     rows = {}
-    for posture in candidates:
+    for posture in (candidates if args.sessions else []):
         totals = dict(true=0, named=0, correct=0)
         held, counts = [], []
         for k in range(args.sessions):
@@ -129,6 +141,8 @@ def main(argv=None) -> int:
               flush=True)
     report = {"seed": args.seed, "sessions": args.sessions, "width": args.width,
               "distractor_frames": args.distractor_frames,
+              "distractor_clips": args.distractor_clips,
+              "distractor_command": args.distractor_command,
               "distractor_kinds": [k for k, _ in distractors], "postures": rows,
               "stop_runs_in_distractors": runs,
               "distractor_counts": [[kind, _counts(span)] for kind, span in distractors],

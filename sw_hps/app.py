@@ -924,7 +924,8 @@ class GestureApp:
             if self.commands is not None and index >= 0:
                 first, last = self._posture_first, self.posture.reader.frame
                 names = [] if first is None or last is None else \
-                    [self.posture.names.get(f) for f in range(first, last + 1)]
+                    [self.posture.names[f] for f in range(first, last + 1)
+                     if f in self.posture.names]
                 verdict = self.commands.judge_names(names)
                 common["posture"], common["posture_share"] = verdict.posture, verdict.share
                 if not verdict.commands:

@@ -219,13 +219,13 @@ class PostureTracker:
         return frame
 
     def held(self, first, last):
-        """``(name, share)`` over the frames ``first`` .. ``last`` (frames without
-        a record count as unknown; at most the last ``keep``); ``(None, None)``
-        if either is None."""
+        """``(name, share)`` over the frames ``first`` .. ``last`` whose record
+        was read (at most the last ``keep``); ``(None, None)`` if either is
+        None or none was read."""
         if first is None or last is None:
             return None, None
         first = max(first, last - self.keep + 1)
-        return held_posture(self.names.get(f) for f in range(first, last + 1))
+        return held_posture(self.names[f] for f in range(first, last + 1) if f in self.names)
 
 
 def _numbers(value):

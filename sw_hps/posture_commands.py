@@ -24,7 +24,10 @@ hand or a refused record):
   another posture (the hand left the stop posture);
 * **command**: a gesture over frames ``first`` .. ``last`` commands when at
   least ``share`` of those frames are in a posture of ``command`` (frames
-  without a posture count against it);
+  without a posture, no hand or refused, count against it; frames whose
+  posture was never read, skipped by :meth:`PostureCommands.take` because the
+  application popped several records between two reads of the posture
+  slave, do not count);
 * **power**: the power level held over most of the gesture's command-posture
   frames (a posture's level is ``power[posture]``; postures of one finger
   count share a level), sent in the telegram (:func:`sw_hps.telegram.telegram`).
@@ -200,12 +203,15 @@ class PostureCommands:
         return False
 
     def judge(self, first, last):
-        """The :class:`Verdict` of a gesture over frames ``first`` .. ``last``."""
+        """The :class:`Verdict` of a gesture over frames ``first`` .. ``last``
+        (the frames taken among them)."""
         first = max(int(first), int(last) - self.keep + 1)
-        return self.judge_names([self.names.get(f) for f in range(first, int(last) + 1)])
+        return self.judge_names([self.names[f] for f in range(first, int(last) + 1)
+                                 if f in self.names])
 
     def judge_names(self, names):
-        """The :class:`Verdict` of a gesture whose frames had postures ``names``."""
+        """The :class:`Verdict` of a gesture whose read frames had postures
+        ``names`` (None: no hand or refused)."""
         names = list(names)
         held = [n for n in names if n in self.command]
         share = len(held) / len(names) if names else 0.0

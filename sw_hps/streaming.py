@@ -190,13 +190,16 @@ class StreamSpotter:
             self.commands.reset()
         self.frames = 0
 
-    def take(self, x_fixed: int, y_fixed: int, present: bool, posture=None) -> list[Command]:
+    def take(self, x_fixed: int, y_fixed: int, present: bool, posture=None,
+             posture_read: bool = True) -> list[Command]:
         """One frame's record (10.8 smoothed position, hand present) and its
-        posture (None: no hand, refused or unknown); the commands named at it."""
+        posture (None: no hand or refused; ``posture_read`` False: the
+        posture slave was not read for this frame, which then counts neither
+        for nor against a command); the commands named at it."""
         frame = self.frames
         self.frames += 1
         if self.commands is not None:
-            if self.commands.take(frame, posture):
+            if posture_read and self.commands.take(frame, posture):
                 self.recogniser.reset()       # the stop overrides what is in progress
                 self.symbols.reset()
                 return [Command(self._stop_index, "stop", self.commands.stop_started, frame,
@@ -445,8 +448,9 @@ class StreamingApp:
             self.posture.poll(first + len(records) - 1)
         named = []
         for k, (x, y, _flag, present) in enumerate(records):
-            posture = self.posture.names.get(first + k) if self.posture is not None else None
-            named += self.spotter.take(x, y, present, posture)
+            read = self.posture is not None and first + k in self.posture.names
+            posture = self.posture.names[first + k] if read else None
+            named += self.spotter.take(x, y, present, posture, posture_read=read)
         for command in named:
             self._send(command)
 

@@ -59,6 +59,24 @@ def test_a_gesture_commands_with_enough_of_its_frames_in_a_command_posture():
     assert c.judge(10, 19).commands and not c.judge(0, 9).commands
 
 
+def test_frames_whose_posture_was_not_read_count_neither_way():
+    """The application may pop several records between two reads of the
+    posture slave: those frames have no posture to judge, unlike a frame
+    read as no hand (None), and they neither extend nor break a stop's run."""
+    c = PostureCommands(OPTIONS)
+    for f in (0, 1, 2, 9):
+        c.take(f, "asl2")
+    v = c.judge(0, 9)
+    assert v.commands and v.share == 1.0
+    for f in range(3, 9):
+        c.take(f, None)                           # read: no hand
+    assert not c.judge(0, 9).commands and c.judge(0, 9).share == 0.4
+    assert not c.judge(20, 30).commands and c.judge(20, 30).share == 0.0   # none read
+    spotter_options = dict(OPTIONS, stop_frames=2)
+    c = PostureCommands(spotter_options)
+    assert not c.take(40, "fist") and c.take(45, "fist") and c.stop_started == 40
+
+
 def test_unknown_postures_are_refused_naming_them():
     check_posture_classes(OPTIONS, ["asl2", "asl3", "asl5", "fist"])
     with pytest.raises(ValueError, match=r"model.json: postures: asl3, fist not a class"):

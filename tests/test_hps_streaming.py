@@ -306,8 +306,9 @@ def test_the_tracker_classifies_each_new_record_once():
         tracker.poll(frame)          # nothing new: no second decision
     assert Model.calls == 3                      # the frame without a hand is not classified
     assert tracker.names == {0: "fist", 1: "fist", 2: None, 3: "fist"} and tracker.last == "fist"
-    assert tracker.held(1, 4) == ("fist", 0.5)
-    assert tracker.held(2, 10 ** 9) == (None, 1.0)      # at most the last keep frames
+    assert tracker.held(1, 4) == ("fist", 0.667)      # frame 4 was never read: not counted
+    assert tracker.held(2, 10 ** 9) == (None, None)     # the last keep frames: none read
+    assert tracker.held(2, 3) == ("fist", 0.5)          # a tie goes to the named posture
     assert tracker.held(None, 4) == (None, None)        # no record when the gesture began
     slave.read32 = lambda offset: 1 / 0          # a fault costs the frame, not the loop
     tracker.poll(4)
