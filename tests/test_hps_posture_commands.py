@@ -278,8 +278,9 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
     path.write_bytes(shipped_model_path("continuous").read_bytes())
     assert main(["posture-commands", str(path), "--command", "asl2,asl3", "--stop", "fist",
                  "--power", "fingers", "--share", "0.4"]) == 0
+    kept = load_models(shipped_model_path("continuous")).postures["stop_frames"]
     assert load_models(path).postures == {"command": ["asl2", "asl3"], "share": 0.4,
-                                          "stop": "fist", "stop_frames": 3,
+                                          "stop": "fist", "stop_frames": kept,
                                           "power": {"asl2": 40, "asl3": 60}}
     capsys.readouterr()
     before = path.read_bytes()
@@ -299,7 +300,7 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
     assert len([row for row in table if row.startswith("| ")]) == 1 + 7 * 2 + 1
     assert "| right | asl3 | turn right (pivot), then forward | 60 | `09 00 80 09 00 05 33 " \
         "30 36 30 00` |" in table
-    assert table[-1] == "| (held 3 frames) | fist | stop both motors | - | " \
+    assert table[-1] == f"| (held {kept} frames) | fist | stop both motors | - | " \
         "`06 00 80 09 00 02 37 00` |"
     assert main(["posture-commands", str(path), "--clear"]) == 0
     assert load_models(path).postures is None
