@@ -71,6 +71,15 @@ def main(argv=None) -> int:
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--json", default=str(ROOT / "build" / "command_postures.json"))
     args = ap.parse_args(argv)
+    from sim.hand_postures import HAND_SHAPE_NAMES
+    for option, value, lo, hi in (("--sessions", args.sessions, 0, 100),
+                                  ("--distractor-frames", args.distractor_frames, 100, 3000),
+                                  ("--distractor-clips", args.distractor_clips, 0, 100)):
+        if not lo <= value <= hi:
+            ap.error(f"{option} must be in {lo}..{hi}, got {value}")
+    if args.distractor_command not in (None, *HAND_SHAPE_NAMES):
+        ap.error(f"--distractor-command must be one of {', '.join(HAND_SHAPE_NAMES)}, got "
+                 f"{args.distractor_command!r}")
     candidates = [p.strip() for p in args.postures.split(",")]
     import dataclasses
     # the trajectory side alone: the shipped model without its posture commands

@@ -40,7 +40,7 @@ from recognition.evaluation import (confusion_matrix, confusion_png, grouped_cro
                                    open_set_rejection)
 from recognition.non_gestures import (as_centroid_tracks, random_walks, scribbles,
                                       wandering_hands)
-from recognition.recogniser import Recogniser
+from recognition.recogniser import DEFAULT_REJECT_BUDGET, Recogniser
 
 ROOT = Path(__file__).resolve().parent.parent
 DOLLAR = ROOT / "data" / "gestures" / "dollar1_unistroke" / "dollar1_unistroke.npz"
@@ -58,7 +58,7 @@ def variants(resample):
                     reject=False)),
         ("gaussian, 16 states, 1 component",
          Recogniser(resample=resample, components=1, reject=False)),
-        ("margin chosen for a 0.5 % budget (--reject-margin auto)",
+        (f"margin chosen for a {100 * DEFAULT_REJECT_BUDGET:g} % budget (--reject-margin auto)",
          Recogniser(resample=resample, reject_margin=None)),
         ("default: gaussian, 16 states, components by samples, rejection",
          Recogniser(resample=resample)),
@@ -94,8 +94,7 @@ def cross_validated(name, data, groups, folds, resample, docs, quick):
             row["rejection_rate_in"] = None
         else:
             row["refused_by_subject"] = outcome.refused_by(data.subject)
-            shares = row["refused_by_subject"].values()
-            row["refused_worst_subject"] = max(shares)
+            row["refused_worst_subject"] = max(row["refused_by_subject"].values())
             print(f"{name}, {label}: refused per held-out subject "
                   + ", ".join(f"{k} {100 * v:.2f} %" for k, v in
                               row["refused_by_subject"].items()), flush=True)

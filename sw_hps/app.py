@@ -149,7 +149,7 @@ from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFa
                        read_id)
 from .hmm import GestureModels
 from .orientation import NO_SYMBOL, NUM_SYMBOLS, orientation_symbols
-from .posture_commands import MIN_FRAME_WIDTH, PostureCommands, postures_for_frame
+from .posture_commands import PostureCommands, postures_for_frame
 from .robot import FAILED, NullLink, deliver_gesture
 from .telegram import GESTURE_NAMES, hex_bytes
 
@@ -514,11 +514,7 @@ class GestureApp:
         if postures is not None and posture is None:
             raise ValueError("the model file's postures entry needs a posture tracker "
                              "(--posture-model)")
-        if postures is not None and postures_for_frame(postures, frame_width) is None:
-            log.warning("frames %d px wide are too narrow for the posture commands (at least "
-                        "%d): every gesture commands, no stop by posture", frame_width,
-                        MIN_FRAME_WIDTH)
-            postures = None
+        postures = postures_for_frame(postures, frame_width, log)
         self.commands = PostureCommands(postures) if postures is not None else None
 
     # ---- control ----------------------------------------------------------------
@@ -923,10 +919,7 @@ class GestureApp:
                 self._posture_first, self.posture.reader.frame)
             if self.commands is not None and index >= 0:
                 first, last = self._posture_first, self.posture.reader.frame
-                names = [] if first is None or last is None else \
-                    [self.posture.names[f] for f in range(first, last + 1)
-                     if f in self.posture.names]
-                verdict = self.commands.judge_names(names)
+                verdict = self.commands.judge_names(self.posture.read_names(first, last))
                 common["posture"], common["posture_share"] = verdict.posture, verdict.share
                 if not verdict.commands:
                     index, reason = -1, (

@@ -224,8 +224,15 @@ class PostureTracker:
         None or none was read."""
         if first is None or last is None:
             return None, None
+        return held_posture(self.read_names(first, last))
+
+    def read_names(self, first, last):
+        """The postures of the frames ``first`` .. ``last`` whose record was read
+        (at most the last ``keep``; none if either is None)."""
+        if first is None or last is None:
+            return []
         first = max(first, last - self.keep + 1)
-        return held_posture(self.names[f] for f in range(first, last + 1) if f in self.names)
+        return [self.names[f] for f in range(first, last + 1) if f in self.names]
 
 
 def _numbers(value):

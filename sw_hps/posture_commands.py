@@ -56,10 +56,17 @@ KEEP_FRAMES = 1024
 MIN_FRAME_WIDTH = 640
 
 
-def postures_for_frame(options, frame_width):
+def postures_for_frame(options, frame_width, log=None):
     """The ``postures`` options to apply at ``frame_width`` (None below
-    :data:`MIN_FRAME_WIDTH`)."""
-    return options if options is not None and frame_width >= MIN_FRAME_WIDTH else None
+    :data:`MIN_FRAME_WIDTH`; ``log``, a logger, is then warned that they are
+    set aside)."""
+    if options is None or frame_width >= MIN_FRAME_WIDTH:
+        return options
+    if log is not None:
+        log.warning("frames %d px wide are too narrow for the posture commands (at least "
+                    "%d): every gesture commands, no stop by posture", frame_width,
+                    MIN_FRAME_WIDTH)
+    return None
 
 
 def _posture_name(key, value):

@@ -64,7 +64,7 @@ from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFa
 from .continuous import ContinuousRecogniser, Detection, step_pixels
 from .fifo import FRAC_BITS, FRAME_WIDTH
 from .orientation import DistanceSymbols
-from .posture_commands import MIN_FRAME_WIDTH, PostureCommands, postures_for_frame
+from .posture_commands import PostureCommands, postures_for_frame
 from .robot import FAILED, deliver_gesture
 from .telegram import GESTURE_NAMES, hex_bytes
 
@@ -167,11 +167,7 @@ class StreamSpotter:
             raise ValueError(f"frame_width must be an integer in [8, 4096], got {frame_width!r}")
         self.recogniser = ContinuousRecogniser(models, **models.spotting)
         self.symbols = DistanceSymbols(step_pixels(models.spotting["step"], frame_width))
-        postures = postures_for_frame(getattr(models, "postures", None), frame_width)
-        if postures is None and getattr(models, "postures", None) is not None:
-            log.warning("frames %d px wide are too narrow for the posture commands (at least "
-                        "%d): every gesture commands, no stop by posture", frame_width,
-                        MIN_FRAME_WIDTH)
+        postures = postures_for_frame(getattr(models, "postures", None), frame_width, log)
         self.commands = PostureCommands(postures) if postures is not None else None
         self._stop_index = list(models.class_names).index("stop") \
             if "stop" in models.class_names else -1

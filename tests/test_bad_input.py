@@ -399,6 +399,7 @@ CASES = [
                             ("--reject-quantile", "2"), ("--reject-margin", "-1"),
                             ("--reject-margin", "some"),
                             ("--reject-margin", "inf"), ("--reject-budget", "0.5"),
+                            ("--reject-budget", "0.01"),
                             ("--emission-floor", "-1"), ("--seed", "-1"), ("--jobs", "0"),
                             ("--cv-states", "x"), ("--cv-states", "5-2"),
                             ("--expected-length", "0")]],

@@ -227,14 +227,11 @@ def test_fit_calibrates_one_threshold_per_class(fitted):
                           groups=data.subject).thresholds == models.thresholds  # deterministic
 
 
-def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
-    """reject_quantile=0: the lowest per-step score of a correctly classified
-    sample of the class, scored by models trained without its subject."""
-    data, samples, _ = fitted
-    recogniser = replace(RECOGNISER, reject_quantile=0.0, reject_margin=0.25)
-    thresholds, info = recogniser.calibrate(samples, data.label, data.class_names, data.subject)
+def held_out_scores(data, samples) -> list[tuple]:
+    """Each sample scored by models trained without its subject (the fixture's
+    3 subjects): (subject, best class, its per-step score, right)."""
     names = data.class_names
-    lowest = [np.inf] * 3
+    held = []
     for subject in range(3):
         train = data.subject != subject
         models = train_gaussian_models([s for s, k in zip(samples, train) if k],
@@ -242,9 +239,21 @@ def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
                                        resample=16)
         for i in np.flatnonzero(~train):
             row = models.scores_of_features(samples[i])
-            truth = names.index(data.label[i])
-            if int(np.argmax(row)) == truth:
-                lowest[truth] = min(lowest[truth], row[truth] / 15)
+            best = int(np.argmax(row))
+            held.append((subject, best, row[best] / 15, best == names.index(data.label[i])))
+    return held
+
+
+def test_thresholds_are_the_quantile_of_held_out_subjects_scores(fitted):
+    """reject_quantile=0: the lowest per-step score of a correctly classified
+    sample of the class, scored by models trained without its subject."""
+    data, samples, _ = fitted
+    recogniser = replace(RECOGNISER, reject_quantile=0.0, reject_margin=0.25)
+    thresholds, info = recogniser.calibrate(samples, data.label, data.class_names, data.subject)
+    lowest = [np.inf] * 3
+    for _, best, score, right in held_out_scores(data, samples):
+        if right:
+            lowest[best] = min(lowest[best], score)
     assert np.allclose(np.array(thresholds) + 0.25, lowest, rtol=1e-12)
     assert info["quantile"] == 0.0 and info["margin"] == 0.25
 
@@ -255,17 +264,7 @@ def test_chosen_margin_is_the_smallest_that_spares_every_held_out_subject(fitted
     lowest right score); the chosen margin is the first that refuses at most
     the budget of every subject, and the thresholds use it."""
     data, samples, _ = fitted
-    names = data.class_names
-    held = []                                  # subject, best class, per-step score, right
-    for subject in range(3):
-        train = data.subject != subject
-        models = train_gaussian_models([s for s, k in zip(samples, train) if k],
-                                       data.label[train], names, num_states=4, components=1,
-                                       resample=16)
-        for i in np.flatnonzero(~train):
-            row = models.scores_of_features(samples[i])
-            best = int(np.argmax(row))
-            held.append((subject, best, row[best] / 15, best == names.index(data.label[i])))
+    held = held_out_scores(data, samples)
     for budget in (0.0, 0.2):
         worst_of = {}
         for margin in MARGIN_GRID:

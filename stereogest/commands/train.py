@@ -144,6 +144,7 @@ def parse_state_range(text: str) -> list[int]:
 def _check_options(args) -> list[int] | None:
     from recognition.features import RESAMPLE_RANGE
     from recognition.hmm_train import MAX_STATES
+    from recognition.recogniser import DEFAULT_REJECT_BUDGET
     cv_states = None
     gaussian = args.emission == "gaussian"
     if args.step is not None and not args.continuous:
@@ -198,6 +199,8 @@ def _check_options(args) -> list[int] | None:
         args.reject_margin = margin
     if not 0.0 <= args.reject_budget < 0.5:
         raise ValueError(f"--reject-budget must be in [0, 0.5), got {args.reject_budget}")
+    if args.reject_budget != DEFAULT_REJECT_BUDGET and args.reject_margin is not None:
+        raise ValueError("--reject-budget applies to --reject-margin auto")
     if args.calibration_folds < 2:
         raise ValueError(f"--calibration-folds must be >= 2, got {args.calibration_folds}")
     if gaussian:
