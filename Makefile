@@ -58,6 +58,8 @@ COMMAND_POSTURES := asl1,asl2,asl3,asl4
 COMMAND_SHARE    := 0.5
 STOP_POSTURE     := fist
 STOP_FRAMES      := 6
+RELEASE_FRAMES   := 5
+NEUTRAL_POSTURES := asl0
 BUNDLE := build/stereogest-hps.tar.gz
 
 model: $(STAMP)
@@ -71,7 +73,8 @@ model: $(STAMP)
 		--emission discrete --continuous
 	$(BIN)/stereogest posture-commands sw_hps/models/continuous7.json \
 		--command $(COMMAND_POSTURES) --share $(COMMAND_SHARE) --stop $(STOP_POSTURE) \
-		--stop-frames $(STOP_FRAMES) --power fingers
+		--stop-frames $(STOP_FRAMES) --release-frames $(RELEASE_FRAMES) \
+		--neutral $(NEUTRAL_POSTURES) --power fingers
 	$(BIN)/stereogest postures -o build/postures_easy.npz --people 100 --seed 1000 --quiet
 	$(BIN)/stereogest postures -o build/postures_hard.npz --people 200 --seed 2000 \
 		--scene hard --quiet

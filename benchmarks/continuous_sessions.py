@@ -21,7 +21,9 @@ A model with a ``postures`` entry (:mod:`sw_hps.posture_commands`) gets each
 frame's posture from the shipped posture classifier on the golden model's
 posture records, as the board gets it from the posture slave: the gestures
 are rendered in its first command posture and the distractors with their
-kinds' hands, a share of them in that posture (:func:`sim.render.render_sequence`);
+kinds' hands, a share of them in that posture (:func:`sim.render.render_sequence`;
+in frames narrower than :data:`sw_hps.posture_commands.MIN_FRAME_WIDTH`, where
+the board sets the posture commands aside, in the open hand and none in it);
 stops by posture count as commands. ``--stops N`` also renders N holds of
 the stop posture between rests (scene seeds 700 onwards) and reports the
 frames from the posture's first frame to the stop telegram.
@@ -121,7 +123,7 @@ def isolated_clips(models, params, width: int, height: int, per_gesture: int, sc
             _, results = spot_rendered(
                 lambda: render_clip(gesture, seed, width, height,
                                     difficulties=preset(scene, seed),
-                                    posture=command_posture(models)),
+                                    posture=command_posture(models, width)),
                 models, params, width, cpu)
             named = [r["name"] for r in results]
             ok = named == [gesture]
@@ -131,10 +133,13 @@ def isolated_clips(models, params, width: int, height: int, per_gesture: int, sc
     return {"clips": len(rows), "right": right, "rows": rows}
 
 
-def command_posture(models):
+def command_posture(models, width: int):
     """The posture gestures are made in: the models' first command posture
-    (None, the renderer's open hand, without posture commands)."""
-    options = models[0].postures
+    (None, the renderer's open hand, without posture commands, or in frames
+    too narrow for them, where the board sets them aside and a person need
+    not hold a posture)."""
+    from sw_hps.posture_commands import postures_for_frame
+    options = postures_for_frame(models[0].postures, width)
     return options["command"][0] if options is not None and options["command"] else None
 
 
@@ -150,7 +155,7 @@ def idle_commands(models, params, width: int, height: int, frames: int, clip_fra
         clip, results = spot_rendered(
             lambda: render_sequence([], seed, width, height, pause=(0, 15), distractors=True,
                                     frames=n, difficulties=preset(scene, seed),
-                                    command=command_posture(models)),
+                                    command=command_posture(models, width)),
             models, params, width, cpu)
         named = [r for r in results if r["outcome"] == "recognised"]
         for r in named:     # which distractor (or pause) each false command overlapped
@@ -216,8 +221,9 @@ def main(argv=None) -> int:
         clip, results = spot_rendered(
             lambda: render_sequence(names, seed, args.width, args.height, pause=(0, 15),
                                     distractors=args.distractors,
-                                    postures=[command_posture(models)] * len(names),
-                                    command=command_posture(models),
+                                    postures=[command_posture(models, args.width)]
+                                    * len(names),
+                                    command=command_posture(models, args.width),
                                     difficulties=preset(args.scene, seed)),
             models, params, args.width, cpu)
         score = sequence_score(results, clip.sequence)

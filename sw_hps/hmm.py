@@ -16,7 +16,8 @@ Model file (JSON), version 4::
                           "step": s, "max_gap": g, "max_gap_share": r},
                                          # max_gap, max_gap_share optional (0)
      "postures": null | {"command": [...], "share": s, "stop": "fist",
-                         "stop_frames": n, "power": {...}},
+                         "stop_frames": n, "release_frames": n, "neutral": [...],
+                         "power": {...}},
                                          # sw_hps.posture_commands; optional
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):

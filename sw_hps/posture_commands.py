@@ -13,6 +13,8 @@ null: none of this, every gesture commands as before)::
                  "share": 0.5,               # of its frames, at least
                  "stop": "fist",             # null: no stop posture
                  "stop_frames": 3,           # records in a row that stop
+                 "release_frames": 3,        # 0: no clutch (the share only)
+                 "neutral": ["asl0"],        # postures that neither hold nor release it
                  "power": {"asl2": 50, ...}} # null: telegrams without a power
 
 :class:`PostureCommands` applies them to each frame's posture (the posture
@@ -28,6 +30,14 @@ hand or a refused record):
   posture was never read, skipped by :meth:`PostureCommands.take` because the
   application popped several records between two reads of the posture
   slave, do not count);
+* **clutch**: with ``release_frames`` > 0, that many records in a row in no
+  command posture (another posture, or none; records in a ``neutral`` posture,
+  one the classifier names a moving command posture by mistake, are skipped)
+  release it: the trajectory
+  spotter names what is pending and starts afresh, and takes no motion until
+  a record names a command posture again (:attr:`PostureCommands.engaged`).
+  So no gesture spans motion made in another posture: a scratch's way down
+  from the face does not join the up-stroke of the ``forward`` after it;
 * **power**: the power level held over most of the gesture's command-posture
   frames (a posture's level is ``power[posture]``; postures of one finger
   count share a level), sent in the telegram (:func:`sw_hps.telegram.telegram`).
@@ -38,15 +48,18 @@ from typing import NamedTuple
 
 from .telegram import POWER_RANGE
 
-__all__ = ["POSTURE_COMMAND_DEFAULTS", "POWER_RANGE", "STOP_FRAMES_RANGE", "MIN_FRAME_WIDTH",
+__all__ = ["POSTURE_COMMAND_DEFAULTS", "POWER_RANGE", "STOP_FRAMES_RANGE",
+           "RELEASE_FRAMES_RANGE", "MIN_FRAME_WIDTH",
            "check_posture_commands", "check_posture_classes", "postures_for_frame",
            "PostureCommands", "Verdict"]
 
 #: Options of the ``postures`` entry and their defaults.
 POSTURE_COMMAND_DEFAULTS = {"command": [], "share": 0.5, "stop": None, "stop_frames": 3,
-                            "power": None}
+                            "release_frames": 0, "neutral": [], "power": None}
 #: Records in a row a stop needs.
 STOP_FRAMES_RANGE = (1, 30)
+#: Records in a row out of a command posture that release the clutch (0: never).
+RELEASE_FRAMES_RANGE = (0, 30)
 #: Frames of postures kept to judge a gesture (a longer one is judged on its last ones).
 KEEP_FRAMES = 1024
 #: Narrowest frame the posture commands apply to: in narrower frames the
@@ -106,6 +119,22 @@ def check_posture_commands(options):
     if isinstance(frames, bool) or not isinstance(frames, int) or not lo <= frames <= hi:
         raise ValueError(f"postures stop_frames must be an integer in [{lo}, {hi}], "
                          f"got {frames!r}")
+    frames = out["release_frames"]
+    lo, hi = RELEASE_FRAMES_RANGE
+    if isinstance(frames, bool) or not isinstance(frames, int) or not lo <= frames <= hi:
+        raise ValueError(f"postures release_frames must be an integer in [{lo}, {hi}], "
+                         f"got {frames!r}")
+    if frames and not out["command"]:
+        raise ValueError("postures release_frames needs command postures (command is empty)")
+    neutral = out["neutral"]
+    if not isinstance(neutral, list) or len(set(map(str, neutral))) != len(neutral):
+        raise ValueError(f"postures neutral must be a list of distinct posture names, "
+                         f"got {neutral!r}")
+    out["neutral"] = [_posture_name("neutral", name) for name in neutral]
+    both = [name for name in out["neutral"] if name in out["command"] or name == out["stop"]]
+    if both:
+        raise ValueError(f"postures neutral {', '.join(both)} must be neither a command nor "
+                         "the stop posture")
     power = out["power"]
     if power is not None:
         if not isinstance(power, dict) or not power:
@@ -131,7 +160,7 @@ def check_posture_classes(options, class_names, where="postures"):
         return
     known = set(class_names)
     named = list(options["command"]) + ([options["stop"]] if options["stop"] else []) \
-        + list(options["power"] or ())
+        + list(options["power"] or ()) + list(options.get("neutral") or ())
     unknown = [name for name in named if name not in known]
     if unknown:
         raise ValueError(f"{where}: {', '.join(sorted(set(unknown)))} not a class of the "
@@ -165,6 +194,9 @@ class PostureCommands:
         First frame of the run of stop-posture records (while one runs).
     stops : int
         Stops fired.
+    engaged : bool
+        The clutch holds: motion may make a gesture (always True with
+        ``release_frames`` 0).
     """
 
     def __init__(self, options, keep=KEEP_FRAMES):
@@ -173,6 +205,7 @@ class PostureCommands:
             raise ValueError("PostureCommands needs a postures entry")
         self.options = options
         self.command = frozenset(options["command"])
+        self.neutral = frozenset(options["neutral"])
         self.keep = int(keep)
         self.stops = 0
         self.reset()
@@ -183,6 +216,8 @@ class PostureCommands:
         self.latched = False
         self.stop_started = None
         self._run = 0
+        self.engaged = True
+        self._out = 0
 
     def take(self, frame, posture):
         """Frame ``frame``'s posture (None: no hand, refused or unknown)."""
@@ -191,6 +226,14 @@ class PostureCommands:
         if len(self.names) > self.keep:
             for old in [f for f in self.names if f <= frame - self.keep]:
                 del self.names[old]
+        release = self.options["release_frames"]
+        if posture in self.command:
+            self._out = 0
+            self.engaged = True
+        elif release and posture not in self.neutral:
+            self._out += 1
+            if self._out >= release:
+                self.engaged = False
         stop = self.options["stop"]
         if stop is None:
             return False

@@ -23,7 +23,9 @@ gesture boundaries itself:
 * with the model file's ``postures`` entry (:mod:`sw_hps.posture_commands`)
   and a posture per frame, a gesture is a command only if the hand held a
   command posture over enough of it (its telegram then carries the power of
-  that posture), and the stop posture held for ``stop_frames`` records sends
+  that posture), no gesture spans motion made out of a command posture
+  (``release_frames``: the clutch), and the stop posture held for
+  ``stop_frames`` records sends
   the stop telegram at once: what is pending is forgotten, and nothing is
   named until the hand leaves the stop posture;
 * a named gesture's NXT telegram goes to the robot at once.
@@ -204,6 +206,10 @@ class StreamSpotter:
                 self.recogniser.reset()
                 self.symbols.reset()
                 return []
+            if not self.commands.engaged:     # the clutch is released: no motion counts
+                self.symbols.reset()
+                return self._judged(self.recogniser.flush(frame)) \
+                    if self.recogniser.started else []
         if present:
             symbol = self.symbols.push((int(x_fixed) >> FRAC_BITS, int(y_fixed) >> FRAC_BITS))
             return self._judged(self.recogniser.step(frame, symbol))

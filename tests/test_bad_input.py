@@ -163,7 +163,12 @@ CASES = [
     case("demo", "--gesture", "stop", "-o", f"{OUT}/d", "--backend", "model", "--posture",
          "wave", match="--posture: posture must be one of"),
     case("posture-commands", f"{IN}/model.json", "--command", "asl2,flat",
-         match="--command/--stop/--power: postures: flat not a class of the posture model"),
+         match="--command/--stop/--neutral/--power: postures: flat not a class of the "
+               "posture model"),
+    case("posture-commands", f"{IN}/model.json", "--release-frames", "-1",
+         match="--release-frames: postures release_frames must be an integer in [0, 30]"),
+    case("posture-commands", f"{IN}/model.json", "--command", "asl2", "--neutral", "asl2",
+         match="--neutral: postures neutral asl2 must be neither a command nor the stop"),
     case("posture-commands", f"{IN}/model.json", "--power", "asl2=120", "--command", "asl2",
          match="--power: postures power 'asl2' must be an integer in [0, 100]"),
     case("render", "--gesture", "stop", "-o", f"{OUT}/c", "--hand-scale", "0.5",

@@ -163,6 +163,11 @@ def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
     assert report["true"] == 2 and report["sessions"][0]["seed"] == module.FIRST_SEED
     assert report["correct"] == 2 and report["false"] == 0
     assert "F1 100.00 %" in capsys.readouterr().out
+    # gestures are made in the command posture only where the board applies it
+    from stereogest.pipeline_outputs import load_models_with_postures
+    models = load_models_with_postures(None, "continuous")
+    assert module.command_posture(models, 640) == models[0].postures["command"][0]
+    assert module.command_posture(models, 320) is None
 
 
 def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
@@ -236,3 +241,35 @@ def test_continuous_accuracy_judges_each_target_from_either_report(tmp_path, cap
     with pytest.raises(SystemExit):
         bench.main(["--dir", str(tmp_path / "hard.json" / "x")])
     assert "--dir: cannot use" in capsys.readouterr().err
+
+
+def test_spotting_dev_keeps_each_clip_and_judges_variants_on_it(tmp_path, capsys):
+    """benchmarks/spotting_dev.py renders a development clip once (its records,
+    postures and truth in --cache), then judges a spotting variant (--set) on
+    the kept records without rendering again."""
+    import time
+    module = load_script("spotting_dev")
+    common = ["--sessions", "1", "--per-session", "2", "--idle-clips", "1",
+              "--idle-frames", "120", "--width", "320", "--height", "240",
+              "--cache", str(tmp_path)]
+    out = tmp_path / "a.json"
+    assert module.main(common + ["--json", str(out)]) == 0
+    first = json.loads(out.read_text())
+    kept = sorted(p.name for p in (tmp_path / "320x240-easy").iterdir())
+    assert kept == ["i330.npz", "s300.npz"]
+    assert first["true"] == 2 and first["idle_frames"] == 120
+    t = time.process_time()
+    assert module.main(common + ["--set", "spotting.threshold_bias=10", "--json", str(out)]) == 0
+    assert time.process_time() - t < 5                  # the kept records, not a render
+    refused = json.loads(out.read_text())
+    assert refused["named"] == 0 and refused["true"] == 2 and refused["set"] == \
+        ["spotting.threshold_bias=10"]
+    assert sum("missed" in line for line in refused["errors"]) == 2
+    assert "spotting.threshold_bias=10" in capsys.readouterr().out.splitlines()[-1]
+    for bad, words in ((["--set", "robot.speed=1"], "--set: 'robot.speed' must be"),
+                       (["--set", "spotting.step=fast"], "--set: 'spotting.step=fast'"),
+                       (["--set", "spotting.step=0"], "--set: spotting step must be")):
+        with pytest.raises(SystemExit) as exc:
+            module.main(common + bad)
+        assert exc.value.code == 2
+        assert words in capsys.readouterr().err, bad

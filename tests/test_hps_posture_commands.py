@@ -130,6 +130,57 @@ def test_in_the_command_posture_the_spotter_names_what_it_named_without(models):
     assert refused == [] and spotter.refused == len(before)
 
 
+def test_the_clutch_releases_after_its_records_out_of_a_command_posture():
+    c = PostureCommands(dict(OPTIONS, release_frames=3))
+    engaged = []
+    for f, p in enumerate(["asl2", "asl5", None, "asl3", "asl5", "asl5", "asl5", "asl5",
+                           "asl2", "fist", "fist", "fist"]):
+        c.take(f, p)
+        engaged.append(c.engaged)
+    # two records out (asl5, no posture) do not release; the third in a row
+    # does, a command posture engages again, and a stop posture releases too
+    assert engaged == [True] * 6 + [False, False, True, True, True, False]
+    off = PostureCommands(OPTIONS)
+    for f in range(10):
+        off.take(f, "asl5")
+    assert off.engaged                     # release_frames 0: no clutch
+    # a neutral posture neither extends nor breaks a run out of the command postures
+    c = PostureCommands(dict(OPTIONS, release_frames=3, neutral=["asl0"]))
+    engaged = []
+    for f, p in enumerate(["asl2", "asl0", "asl0", "asl0", "asl0", "asl5", "asl0", "asl5",
+                           "asl0", "asl5"]):
+        c.take(f, p)
+        engaged.append(c.engaged)
+    assert engaged == [True] * 9 + [False]
+
+
+def test_no_gesture_spans_motion_made_out_of_the_command_posture(models):
+    """A gesture's first half made in another posture: with the share alone the
+    whole is named when most of it is in the command posture; with the clutch
+    only motion after the posture changed can make a gesture."""
+    plain, gated, fixed = models
+    before, _ = _spot(plain, fixed, [None] * len(fixed))
+    clutch = dataclasses.replace(gated, postures=dict(OPTIONS, share=0.3, release_frames=3))
+    for g in before[:4]:
+        postures = ["asl2"] * len(fixed)
+        cut = g.first + (g.last - g.first) // 3
+        postures[g.first - 5:cut] = ["asl5"] * (cut - g.first + 5)
+        shared, _ = _spot(dataclasses.replace(gated, postures=dict(OPTIONS, share=0.3)),
+                          fixed, postures)
+        assert (g.name, g.first) in [(c.name, c.first) for c in shared]
+        held, _ = _spot(clutch, fixed, postures)
+        assert not [c for c in held if c.first < cut <= c.last]
+        assert all(c.first >= cut for c in held if g.first <= c.last and c.first <= g.last)
+    # in the command posture throughout, a record or two named otherwise
+    # change nothing
+    postures = ["asl2"] * len(fixed)
+    postures[::9] = ["asl5"] * len(postures[::9])
+    postures[1::9] = [None] * len(postures[1::9])
+    held, _ = _spot(clutch, fixed, postures)
+    assert [(c.name, c.first, c.last) for c in held] == \
+        [(c.name, c.first, c.last) for c in before]
+
+
 def test_the_stop_posture_stops_at_once_and_nothing_follows_until_it_is_left(models):
     plain, gated, fixed = models
     before, _ = _spot(plain, fixed, [None] * len(fixed))
@@ -278,9 +329,11 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
     path.write_bytes(shipped_model_path("continuous").read_bytes())
     assert main(["posture-commands", str(path), "--command", "asl2,asl3", "--stop", "fist",
                  "--power", "fingers", "--share", "0.4"]) == 0
-    kept = load_models(shipped_model_path("continuous")).postures["stop_frames"]
+    shipped = load_models(shipped_model_path("continuous")).postures
     assert load_models(path).postures == {"command": ["asl2", "asl3"], "share": 0.4,
-                                          "stop": "fist", "stop_frames": kept,
+                                          "stop": "fist", "stop_frames": shipped["stop_frames"],
+                                          "release_frames": shipped["release_frames"],
+                                          "neutral": shipped["neutral"],
                                           "power": {"asl2": 40, "asl3": 60}}
     capsys.readouterr()
     before = path.read_bytes()
@@ -289,6 +342,12 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
                         (["--power", "asl2=300,asl3=10"], "--power: postures power 'asl2'"),
                         (["--power", "asl2"], "--power: expected POSTURE=P pairs"),
                         (["--stop-frames", "0"], "--stop-frames: postures stop_frames"),
+                        (["--neutral", "asl2"], "--neutral: postures neutral asl2 must be "
+                                                "neither a command nor the stop posture"),
+                        (["--neutral", "flat"], "flat not a class of the posture model"),
+                        (["--release-frames", "31"],
+                         "--release-frames: postures release_frames must be an integer in "
+                         "[0, 30]"),
                         (["--clear", "--stop", "fist"], "--clear takes no other")):
         assert main(["posture-commands", str(path), *args]) == 2, args
         err = capsys.readouterr().err.strip().splitlines()
@@ -300,7 +359,7 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
     assert len([row for row in table if row.startswith("| ")]) == 1 + 7 * 2 + 1
     assert "| right | asl3 | turn right (pivot), then forward | 60 | `09 00 80 09 00 05 33 " \
         "30 36 30 00` |" in table
-    assert table[-1] == f"| (held {kept} frames) | fist | stop both motors | - | " \
+    assert table[-1] == f"| (held {shipped['stop_frames']} frames) | fist | stop both motors | - | " \
         "`06 00 80 09 00 02 37 00` |"
     assert main(["posture-commands", str(path), "--clear"]) == 0
     assert load_models(path).postures is None

@@ -1,7 +1,9 @@
 """Set the posture commands of a gesture model file (its ``postures`` entry,
 sw_hps.posture_commands): the command postures a gesture must be made in
 (--command, with --share of its frames), the stop posture that stops the
-robot when held for --stop-frames records (--stop), and the motor power each
+robot when held for --stop-frames records (--stop), the clutch (--release-frames
+records in a row out of a command posture end any gesture, --neutral postures
+counting neither way), and the motor power each
 command posture puts in the NXT telegram (--power: POSTURE=P pairs, or
 ``fingers``: 20 per extended finger). --clear removes the entry. Every
 posture must be a class of the posture model (--posture-model, default the
@@ -30,6 +32,13 @@ def add_arguments(p):
                    help="posture that stops the robot at once (e.g. fist); 'none': no stop")
     p.add_argument("--stop-frames", type=int, default=None, metavar="N",
                    help="posture records in a row that stop (1..30, default 3)")
+    p.add_argument("--release-frames", type=int, default=None, metavar="N",
+                   help="posture records in a row out of a command posture that end any "
+                        "gesture in progress (0..30; 0, the default: none, the share only)")
+    p.add_argument("--neutral", metavar="LIST", default=None,
+                   help="comma-separated postures that neither hold nor release the clutch "
+                        "(ones the classifier names a moving command posture by mistake); "
+                        "'none': every other posture releases it")
     p.add_argument("--power", metavar="P", default=None,
                    help="motor power of each command posture: POSTURE=P,... (0..100), "
                         f"'fingers' ({POWER_PER_FINGER} per extended finger) or 'none'")
@@ -67,10 +76,11 @@ def _power(text: str, command: list) -> dict | None:
 
 def _option(message: str) -> str:
     """The option a message about a key of the postures entry is about."""
-    for key in ("stop_frames", "command", "share", "stop", "power"):
+    for key in ("stop_frames", "release_frames", "command", "share", "stop", "neutral",
+                "power"):
         if message.startswith(f"postures {key}"):
             return "--" + key.replace("_", "-")
-    return "--command/--stop/--power"
+    return "--command/--stop/--neutral/--power"
 
 
 def run(args) -> int:
@@ -83,7 +93,8 @@ def run(args) -> int:
     models = load_models(args.model)
     posture_model = load_posture_model(args.posture_model)
     if args.clear:
-        if any(v is not None for v in (args.command_postures, args.share, args.stop, args.stop_frames,
+        if any(v is not None for v in (args.command_postures, args.share, args.stop,
+                                       args.stop_frames, args.release_frames, args.neutral,
                                        args.power)):
             raise ValueError("--clear takes no other posture option")
         entry = None
@@ -98,6 +109,11 @@ def run(args) -> int:
             entry["stop"] = None if args.stop == "none" else args.stop
         if args.stop_frames is not None:
             entry["stop_frames"] = args.stop_frames
+        if args.release_frames is not None:
+            entry["release_frames"] = args.release_frames
+        if args.neutral is not None:
+            entry["neutral"] = [] if args.neutral == "none" else \
+                [n.strip() for n in args.neutral.split(",")]
         if args.power is not None:
             entry["power"] = _power(args.power, entry.get("command", []))
         try:
@@ -116,6 +132,9 @@ def run(args) -> int:
               f" (at least {100 * entry['share']:.0f} % of a gesture's frames)"
               + (f", stop in {entry['stop']} held {entry['stop_frames']} records"
                  if entry["stop"] else ", no stop posture")
+              + (f", released by {entry['release_frames']} records out of them"
+                 + (f" ({', '.join(entry['neutral'])} neutral)" if entry["neutral"] else "")
+                 if entry["release_frames"] else "")
               + (", power " + ", ".join(f"{k} {v}" for k, v in power.items()) if power
                  else ""))
     if args.table:
