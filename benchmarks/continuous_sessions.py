@@ -45,8 +45,9 @@ from sim.gesture_shapes import GESTURE_NAMES
 from sim.model.pipeline import PipelineParams, run_clip
 from sim.difficulties import preset
 from sim.render import render_sequence
-from stereogest.pipeline_outputs import (frame_postures, load_models_with_postures,
-                                         sequence_score, stream_results)
+from stereogest.pipeline_outputs import (command_posture, frame_postures,
+                                         load_models_with_postures, sequence_score,
+                                         stream_results)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRST_SEED = 500
@@ -131,16 +132,6 @@ def isolated_clips(models, params, width: int, height: int, per_gesture: int, sc
             rows.append({"gesture": gesture, "seed": seed, "named": named, "right": ok})
     print(f"isolated clips: {right} of {len(rows)} named once and right", flush=True)
     return {"clips": len(rows), "right": right, "rows": rows}
-
-
-def command_posture(models, width: int):
-    """The posture gestures are made in: the models' first command posture
-    (None, the renderer's open hand, without posture commands, or in frames
-    too narrow for them, where the board sets them aside and a person need
-    not hold a posture)."""
-    from sw_hps.posture_commands import postures_for_frame
-    options = postures_for_frame(models[0].postures, width)
-    return options["command"][0] if options is not None and options["command"] else None
 
 
 def idle_commands(models, params, width: int, height: int, frames: int, clip_frames: int,

@@ -6,8 +6,9 @@ clip's records, postures and truth are kept in ``--cache`` (one ``.npz`` per
 clip), so that spotting variants (``--set KEY=VALUE`` on the model's
 ``spotting`` or ``postures`` entry) are judged in seconds. Prints F1, the
 false commands and every error: what was named where, against the truth and
-the distractor it overlapped (and whether that distractor was made in the
-command posture).
+the distractor it overlapped (and the posture that distractor was made in).
+A kept clip is not rendered again: delete the cache when the pipeline, the
+renderer or the models' command posture change.
 
 Run: ``python benchmarks/spotting_dev.py [--sessions 10] [--idle-clips 6]
 [--width 640 --height 480] [--set postures.release_frames=3 ...] [--json FILE]``.
@@ -43,7 +44,9 @@ def _cached(path: Path, render, posture_model, params):
             "area": np.asarray(trajectory.area, np.int64),
             "postures": np.array([p or "" for p in postures])}
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, truth=json.dumps(truth), **data)
+    part = path.with_suffix(".part.npz")        # a clip is kept whole or not at all
+    np.savez_compressed(part, truth=json.dumps(truth), **data)
+    part.replace(path)
     return truth, data
 
 
@@ -88,8 +91,12 @@ def main(argv=None) -> int:
     from sim.difficulties import preset
     from sim.gesture_shapes import GESTURE_NAMES
     from sim.model.pipeline import PipelineParams
-    from sim.render import render_sequence
-    from stereogest.pipeline_outputs import load_models_with_postures, sequence_score
+    from sim.render import HEIGHT_RANGE, WIDTH_RANGE, render_sequence
+    from types import SimpleNamespace
+
+    from recognition.continuous import match_detections
+    from stereogest.pipeline_outputs import (command_posture, load_models_with_postures,
+                                             sequence_score)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sessions", type=int, default=10)
     ap.add_argument("--per-session", type=int, default=8)
@@ -107,17 +114,33 @@ def main(argv=None) -> int:
     ap.add_argument("--quiet", action="store_true", help="no error list")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
+    for option, value, lo, hi in (("--sessions", args.sessions, 0, 100),
+                                  ("--per-session", args.per_session, 1, 100),
+                                  ("--idle-clips", args.idle_clips, 0, 100),
+                                  ("--idle-frames", args.idle_frames, 100, 3000)):
+        if not lo <= value <= hi:
+            ap.error(f"{option} must be in {lo}..{hi}, got {value}")
+    for option, value, (lo, hi) in (("--width", args.width, WIDTH_RANGE),
+                                    ("--height", args.height, HEIGHT_RANGE)):
+        if value % 2 or not lo <= value <= hi:
+            ap.error(f"{option} must be even, in {lo}..{hi} (the renderer's), got {value}")
+    clips = {f"s{args.seed + k}" for k in range(args.sessions)} | \
+        {f"i{args.idle_seed + k}" for k in range(args.idle_clips)}
+    only = set(args.only.split(",")) if args.only else None
+    if only is not None and only - clips:
+        ap.error(f"--only: {', '.join(sorted(only - clips))} not among this run's clips "
+                 "(sSEED for --seed .. --seed + --sessions - 1, iSEED for the idle clips)")
+    try:
+        params = PipelineParams.for_frame(args.width, hand_tracking=args.scene == "hard")
+    except ValueError as exc:
+        ap.error(f"--width: {exc}")
     models, posture_model = load_models_with_postures(args.model, "continuous", None)
     try:
         models = _set(models, args.set)
     except ValueError as exc:
         ap.error(f"--set: {exc}")
-    from sw_hps.posture_commands import postures_for_frame
-    options = postures_for_frame(models.postures, args.width)
-    command = options["command"][0] if options and options["command"] else None
-    params = PipelineParams.for_frame(args.width, hand_tracking=args.scene == "hard")
+    command = command_posture((models, posture_model), args.width)
     cache = Path(args.cache) / f"{args.width}x{args.height}-{args.scene}"
-    only = set(args.only.split(",")) if args.only else None
     totals = dict(true=0, named=0, correct=0, false=0)
     errors, idle_false, idle_frames, latencies = [], 0, 0, []
     cpu = time.process_time()
@@ -138,20 +161,20 @@ def main(argv=None) -> int:
         for key in totals:
             totals[key] += score[key]
         latencies += score["latencies"]
+        # matched as the score matches them (recognition.continuous.match_detections)
         named = [r for r in results if r["outcome"] == "recognised"]
-        for g, a, b in truth["sequence"]:
-            hit = [r for r in named if r["name"] == g and
-                   min(b, r["last"]) - max(a, r["first"]) + 1
-                   >= 0.5 * min(b - a + 1, r["last"] - r["first"] + 1)]
-            if not hit:
+        matched, _ = match_detections(
+            [SimpleNamespace(named_at=r["named_at"], **{k: r[k] for k in ("name", "first",
+                                                                           "last")})
+             for r in named], [(a, b) for _, a, b in truth["sequence"]],
+            [g for g, _, _ in truth["sequence"]])
+        for k, (g, a, b) in enumerate(truth["sequence"]):
+            if k not in matched:
                 near = [(r["name"], r["first"], r["last"]) for r in named
                         if r["first"] <= b and a <= r["last"]]
                 errors.append(f"s{seed} missed {g} {a}-{b}: named over it {near}")
-        for r in named:
-            ok = any(r["name"] == g and min(b, r["last"]) - max(a, r["first"]) + 1
-                     >= 0.5 * min(b - a + 1, r["last"] - r["first"] + 1)
-                     for g, a, b in truth["sequence"])
-            if not ok:
+        for r, hit in zip(named, matched):
+            if hit < 0:
                 errors.append(f"s{seed} false {r['name']} {r['first']}-{r['last']} over "
                               f"{_describe(r, truth)}")
     for k in range(args.idle_clips):

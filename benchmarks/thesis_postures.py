@@ -26,7 +26,8 @@ from sim.difficulties import preset
 from sim.gesture_shapes import GESTURE_NAMES
 from sim.model.pipeline import PipelineParams, run_clip
 from sim.render import render_clip, render_sequence
-from stereogest.pipeline_outputs import board_results, load_models_with_postures
+from stereogest.pipeline_outputs import (board_results, load_models_with_postures,
+                                         recognised_gestures)
 
 ROOT = Path(__file__).resolve().parents[1]
 ISOLATED_FIRST_SEED = 3001
@@ -69,26 +70,25 @@ def main(argv=None) -> int:
             seed = ISOLATED_FIRST_SEED + k
             results = both(render_clip(gesture, seed, WIDTH, HEIGHT, posture=command,
                                        difficulties=preset("easy", seed)))
-            for name, entries in results.items():
-                named = [e["name"] for e in entries if e["outcome"] == "recognised"]
+            named = {name: [e["name"] for e in recognised_gestures(entries)]
+                     for name, entries in results.items()}
+            for name, names in named.items():
                 rows[name]["clips"] += 1
-                rows[name]["right"] += named == [gesture]
-            print(f"{gesture} (seed {seed}): " + "; ".join(
-                f"{name}: {[e['name'] for e in entries if e['outcome'] == 'recognised']}"
-                for name, entries in results.items()), flush=True)
+                rows[name]["right"] += names == [gesture]
+            print(f"{gesture} (seed {seed}): "
+                  + "; ".join(f"{name}: {names}" for name, names in named.items()), flush=True)
     for k in range(args.idle_clips):
         seed = IDLE_FIRST_SEED + k
         results = both(render_sequence([], seed, WIDTH, HEIGHT, pause=(0, 15), distractors=True,
                                        frames=args.idle_clip, difficulties=preset("easy", seed),
                                        command=command))
-        for name, entries in results.items():
-            named = [e for e in entries if e["outcome"] == "recognised"]
-            rows[name]["false"] += len(named)
+        named = {name: recognised_gestures(entries) for name, entries in results.items()}
+        for name, commands in named.items():
+            rows[name]["false"] += len(commands)
             if "stops" in rows[name]:
-                rows[name]["stops"] += sum(bool(e.get("by_posture")) for e in named)
+                rows[name]["stops"] += sum(bool(e.get("by_posture")) for e in commands)
         print(f"distractors (seed {seed}): " + "; ".join(
-            f"{name}: {sum(e['outcome'] == 'recognised' for e in entries)} commands"
-            for name, entries in results.items()), flush=True)
+            f"{name}: {len(commands)} commands" for name, commands in named.items()), flush=True)
     minutes = args.idle_clips * args.idle_clip / 30 / 60
     for row in rows.values():
         row["false_per_10_min"] = round(10 * row["false"] / minutes, 1) if minutes else None

@@ -185,6 +185,17 @@ def load_models_with_postures(path=None, spotting: str = "thesis", posture_path=
     return models, posture_model
 
 
+def command_posture(models, frame_width: int):
+    """The posture rendered gestures are made in for ``models`` (gesture models
+    and posture model, as :func:`load_models_with_postures` gives them): their
+    first command posture, or None (the renderer's open hand) without posture
+    commands or in frames too narrow for them, where the board sets them aside
+    and a person need not hold a posture."""
+    from sw_hps.posture_commands import postures_for_frame
+    options = postures_for_frame(getattr(models[0], "postures", None), frame_width)
+    return options["command"][0] if options is not None and options["command"] else None
+
+
 def spot(models, posture_model, trajectory, frame_width: int, spotting: str) -> list[dict]:
     """The board application's results on a trajectory in a spotting mode
     (:func:`stream_results` or :func:`board_results`), each frame's posture

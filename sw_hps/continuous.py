@@ -215,11 +215,6 @@ class ContinuousRecogniser:
         self._symbol_frames = np.zeros(_GAP_HISTORY, np.int64)   # symbol k's at k % size
 
     @property
-    def started(self) -> bool:
-        """A symbol has been taken since the last reset (or flush)."""
-        return self._symbols > 0
-
-    @property
     def pending(self) -> bool:
         """A gesture end has been found and is not yet named."""
         return self._pending is not None

@@ -25,6 +25,8 @@ from soc.hps_interface import (FIFO_BASE, POSTURE_BASE, POSTURE_DATA, POSTURE_IN
                                POSTURE_WORD_COUNT, POSTURE_WORDS, posture_layout_word,
                                posture_word_offsets)
 
+from .posture_commands import read_names
+
 __all__ = ["POSTURE_FORMAT", "POSTURE_VERSION", "PostureModel", "posture_features",
            "read_posture_model", "decode_posture_words", "record_features", "PostureReader",
            "POSTURE_OFFSET", "BUS_ACCESSES_PER_RECORD", "held_posture", "PostureTracker",
@@ -231,8 +233,7 @@ class PostureTracker:
         (at most the last ``keep``; none if either is None)."""
         if first is None or last is None:
             return []
-        first = max(first, last - self.keep + 1)
-        return [self.names[f] for f in range(first, last + 1) if f in self.names]
+        return read_names(self.names, first, last, self.keep)
 
 
 def _numbers(value):

@@ -51,7 +51,7 @@ from .telegram import POWER_RANGE
 __all__ = ["POSTURE_COMMAND_DEFAULTS", "POWER_RANGE", "STOP_FRAMES_RANGE",
            "RELEASE_FRAMES_RANGE", "MIN_FRAME_WIDTH",
            "check_posture_commands", "check_posture_classes", "postures_for_frame",
-           "PostureCommands", "Verdict"]
+           "read_names", "PostureCommands", "Verdict"]
 
 #: Options of the ``postures`` entry and their defaults.
 POSTURE_COMMAND_DEFAULTS = {"command": [], "share": 0.5, "stop": None, "stop_frames": 3,
@@ -167,6 +167,14 @@ def check_posture_classes(options, class_names, where="postures"):
                          f"posture model ({', '.join(class_names)})")
 
 
+def read_names(names, first, last, keep):
+    """The postures in ``names`` (frame: posture) of the frames ``first`` ..
+    ``last`` that have one (at most the last ``keep``): a frame whose record
+    was never read counts neither way."""
+    first = max(int(first), int(last) - keep + 1)
+    return [names[f] for f in range(first, int(last) + 1) if f in names]
+
+
 class Verdict(NamedTuple):
     """What the postures say of one gesture."""
     #: it may command (always True without a command posture)
@@ -194,9 +202,6 @@ class PostureCommands:
         First frame of the run of stop-posture records (while one runs).
     stops : int
         Stops fired.
-    engaged : bool
-        The clutch holds: motion may make a gesture (always True with
-        ``release_frames`` 0).
     """
 
     def __init__(self, options, keep=KEEP_FRAMES):
@@ -216,8 +221,7 @@ class PostureCommands:
         self.latched = False
         self.stop_started = None
         self._run = 0
-        self.engaged = True
-        self._out = 0
+        self._out = 0                   # records in a row out of the command postures
 
     def take(self, frame, posture):
         """Frame ``frame``'s posture (None: no hand, refused or unknown)."""
@@ -226,14 +230,10 @@ class PostureCommands:
         if len(self.names) > self.keep:
             for old in [f for f in self.names if f <= frame - self.keep]:
                 del self.names[old]
-        release = self.options["release_frames"]
         if posture in self.command:
             self._out = 0
-            self.engaged = True
-        elif release and posture not in self.neutral:
+        elif posture not in self.neutral:
             self._out += 1
-            if self._out >= release:
-                self.engaged = False
         stop = self.options["stop"]
         if stop is None:
             return False
@@ -252,12 +252,17 @@ class PostureCommands:
             self.latched = False        # the hand left the stop posture
         return False
 
+    @property
+    def engaged(self):
+        """The clutch holds: motion may make a gesture (always with
+        ``release_frames`` 0)."""
+        release = self.options["release_frames"]
+        return not release or self._out < release
+
     def judge(self, first, last):
         """The :class:`Verdict` of a gesture over frames ``first`` .. ``last``
         (the frames taken among them)."""
-        first = max(int(first), int(last) - self.keep + 1)
-        return self.judge_names([self.names[f] for f in range(first, int(last) + 1)
-                                 if f in self.names])
+        return self.judge_names(read_names(self.names, first, last, self.keep))
 
     def judge_names(self, names):
         """The :class:`Verdict` of a gesture whose read frames had postures

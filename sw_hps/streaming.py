@@ -206,14 +206,11 @@ class StreamSpotter:
                 self.recogniser.reset()
                 self.symbols.reset()
                 return []
-            if not self.commands.engaged:     # the clutch is released: no motion counts
-                self.symbols.reset()
-                return self._judged(self.recogniser.flush(frame)) \
-                    if self.recogniser.started else []
-        if present:
+        # with the clutch released motion counts as little as a hand out of view
+        if present and (self.commands is None or self.commands.engaged):
             symbol = self.symbols.push((int(x_fixed) >> FRAC_BITS, int(y_fixed) >> FRAC_BITS))
             return self._judged(self.recogniser.step(frame, symbol))
-        self.symbols.reset()          # the hand left: name what is pending
+        self.symbols.reset()          # the hand left (or let go): name what is pending
         return self._judged(self.recogniser.flush(frame))
 
     def flush(self) -> list[Command]:

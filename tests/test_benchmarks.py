@@ -164,10 +164,10 @@ def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
     assert report["correct"] == 2 and report["false"] == 0
     assert "F1 100.00 %" in capsys.readouterr().out
     # gestures are made in the command posture only where the board applies it
-    from stereogest.pipeline_outputs import load_models_with_postures
+    from stereogest.pipeline_outputs import command_posture, load_models_with_postures
     models = load_models_with_postures(None, "continuous")
-    assert module.command_posture(models, 640) == models[0].postures["command"][0]
-    assert module.command_posture(models, 320) is None
+    assert command_posture(models, 640) == models[0].postures["command"][0]
+    assert command_posture(models, 320) is None
 
 
 def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
@@ -268,7 +268,9 @@ def test_spotting_dev_keeps_each_clip_and_judges_variants_on_it(tmp_path, capsys
     assert "spotting.threshold_bias=10" in capsys.readouterr().out.splitlines()[-1]
     for bad, words in ((["--set", "robot.speed=1"], "--set: 'robot.speed' must be"),
                        (["--set", "spotting.step=fast"], "--set: 'spotting.step=fast'"),
-                       (["--set", "spotting.step=0"], "--set: spotting step must be")):
+                       (["--set", "spotting.step=0"], "--set: spotting step must be"),
+                       (["--only", "s999"], "--only: s999 not among this run's clips"),
+                       (["--width", "641"], "--width must be even, in 96..4096")):
         with pytest.raises(SystemExit) as exc:
             module.main(common + bad)
         assert exc.value.code == 2
