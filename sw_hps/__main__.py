@@ -11,7 +11,7 @@ in :mod:`sw_hps`), nothing else from this project.
                      [--baudrate 115200] [--rn42-address ADDR] [--robot-ack [SECONDS]]
                      [--poll-ms 5] [--min-symbols 5] [--max-points 300] [--gesture-timeout 2]
                      [--heartbeat 60] [--sim-trajectory FILE.csv] [--log-level info]
-                     [--spotting thesis|continuous] [--fault-retries 0]
+                     [--spotting thesis|continuous] [--fault-retries 0] [--user NAME]
 
 The FIFO slave sits at ``--bridge-offset`` inside the lightweight bridge
 (``/dev/mem`` at ``0xFF200000``) or at offset 0 of the UIO map; the UART (``--robot
@@ -65,6 +65,11 @@ again and, if good, the application restarts with it; a bad one is refused in on
 application keeps its model. ``--bus sim`` runs in one process without the supervisor (SIGHUP is not
 handled there).
 
+``--user NAME`` (:mod:`sw_hps.privileges`): once the bus is open and mapped, the
+process runs as NAME with its groups, so that a service started as root for
+``/dev/mem`` keeps root no longer than the mapping; it checks that NAME can read
+the package and the model files (reloads read them again).
+
 Exit status: 0 after SIGINT/SIGTERM or the end of a simulated trajectory, 2 for a bad
 argument or model file (one line on stderr), 1 if the bus cannot be opened or the
 start-up checks fail (one line naming the fix), or if the application died of a bus
@@ -80,6 +85,7 @@ check_floor()   # one line instead of an ImportError from the modules below that
 import argparse
 import json
 import logging
+import os
 import signal
 import sys
 import termios
@@ -95,6 +101,7 @@ from soc.hps_interface import FIFO_BASE, UART_BASE, UART_SPAN
 
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
+from .privileges import PrivilegeError, drop_privileges, look_up_user
 from .robot import (ACK_TIMEOUT_RANGE, DEFAULT_ACK_TIMEOUT, RN42_STATUS_PREFIX, NullLink,
                     RobotChannel, SerialLink, UartLink, normalise_bt_address)
 from .simulated import (SimulatedFifoPeripheral, SimulatedRn42, SimulatedUart,
@@ -193,6 +200,10 @@ def build_parser() -> argparse.ArgumentParser:
                         f"again up to N times in a row, waiting {RETRY_INITIAL:g} s doubling "
                         f"to {RETRY_MAX:g} s (devmem, uio; default 0: exit with status 1, "
                         f"for systemd's Restart=on-failure; at most {MAX_FAULT_RETRIES})")
+    parser.add_argument("--user", metavar="NAME",
+                        help="once the bus is open, run as this user (its groups too): what "
+                        "needs root (mapping /dev/mem) is done by then; for a service started "
+                        "as root (default: stay as started)")
     parser.add_argument("--log-level", default="info", choices=LOG_LEVELS,
                         help="logging level (default info)")
     return parser
@@ -260,6 +271,13 @@ def parse_args(argv):
                              f"got {args.robot_ack:g}")
     if getattr(termios, f"B{args.baudrate}", None) is None or args.baudrate <= 0:
         raise UsageError(f"argument --baudrate: not a standard serial rate: {args.baudrate}")
+    if args.user is not None:
+        if args.check:
+            raise UsageError("argument --user: not with --check (it opens nothing to keep)")
+        try:
+            look_up_user(args.user)
+        except PrivilegeError as exc:
+            raise UsageError(str(exc)) from None
     return args
 
 
@@ -395,6 +413,17 @@ def main(argv=None, *, guard: bool = False) -> int:
     except BusError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 1
+    if args.user is not None:
+        # the mapping is made; the rest (reloads, the robot's tty) needs no root
+        readable = [os.path.dirname(os.path.abspath(__file__)), args.model]
+        readable += [args.posture_model] if args.posture_model is not None else []
+        try:
+            if drop_privileges(args.user, readable=readable):
+                log.info("running as user %s", args.user)
+        except PrivilegeError as exc:
+            bus.close()
+            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            return 1
     if guard and args.bus in GUARDED_BUSES:
         # Every access to the bridge happens in the child: a bus error (SIGBUS) there
         # becomes one line from the parent instead of a silent death.

@@ -4,7 +4,8 @@ tarball (``make hps-bundle``; ``make deploy HPS=user@host`` installs it).
 The tarball unpacks to::
 
     sw_hps/...             the application (Python + numpy on the board)
-    sw_hps/service/...     systemd unit, SysV init script, settings example, wait-core
+    sw_hps/service/...     systemd unit and its devmem drop-in, SysV init script,
+                           settings example, udev rule, wait-core
     soc/hps_interface.py   what the FPGA and the application agree on (registers,
                            bases, gesture classes; standard library only)
     model.json             the HMM model file
@@ -46,7 +47,8 @@ ROOT = PACKAGE.parent
 SHARED = ("soc/__init__.py", "soc/hps_interface.py")
 #: The service files, shipped under sw_hps/service/ (install.sh puts them in place).
 SERVICE = "sw_hps/service"
-SERVICE_FILES = ("stereogest.service", "stereogest.init", "stereogest.default", "wait-core")
+SERVICE_FILES = ("stereogest.service", "stereogest-devmem.conf", "stereogest.init",
+                 "stereogest.default", "60-stereogest.rules", "wait-core")
 #: The installer: its source in the repository, its name in the bundle.
 INSTALLER = ("sw_hps/service/install.sh", "install.sh")
 #: Documents shipped when present: source, name in the bundle, what it covers.

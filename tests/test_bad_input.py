@@ -632,6 +632,9 @@ BOARD_CASES = [
       "continuous", "--posture-model", "{text}"], "text.json"),
     (["--model", "{continuous}", "--bus", "sim", "--robot", "none", "--spotting",
       "continuous", "--posture-model", "{model}"], "gestures7.json"),
+    (["--model", "{model}", "--bus", "sim", "--robot", "none", "--user", "no-such-user"],
+     "argument --user: no user 'no-such-user'"),
+    (["--check", "--bus", "sim", "--user", "root"], "argument --user: not with --check"),
 ]
 
 

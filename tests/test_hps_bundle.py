@@ -2,6 +2,7 @@
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import stat
@@ -488,6 +489,18 @@ def test_systemd_unit_runs_the_module_after_waiting_for_the_core():
     assert service["Restart"] == ["on-failure"] and int(service["RestartSec"][0]) > 0
     assert service["StandardError"] == ["journal"]
     assert unit["Install"]["WantedBy"] == ["multi-user.target"]
+    # Never root, no capabilities, nothing but its install directory to read.
+    assert service["User"] == ["stereogest"] and service["Group"] == ["stereogest"]
+    assert service["CapabilityBoundingSet"] == [""] and service["DevicePolicy"] == ["closed"]
+    assert service["BindReadOnlyPaths"] == ["@DIR@"] and service["ProtectSystem"] == ["strict"]
+    # The devmem drop-in: root for the mapping, then --user to the same user.
+    dropin = parse_unit((ROOT / SERVICE / "stereogest-devmem.conf").read_text())["Service"]
+    assert dropin["User"] == ["root"] and dropin["DeviceAllow"] == ["/dev/mem rw"]
+    assert dropin["ExecStart"] == ["", start[0] + " --user " + service["User"][0]]
+    assert set(dropin["CapabilityBoundingSet"][0].split()) == {
+        "CAP_SYS_RAWIO", "CAP_SETUID", "CAP_SETGID"}
+    rule = (ROOT / SERVICE / "60-stereogest.rules").read_text()
+    assert 'GROUP="stereogest"' in rule and 'ATTR{name}=="stereogest"' in rule
     # Every setting the unit uses is in the example settings file.
     settings = service_settings()
     assert {"STEREOGEST_BUS", "STEREOGEST_ARGS", "STEREOGEST_WAIT"} <= set(settings)
@@ -495,10 +508,10 @@ def test_systemd_unit_runs_the_module_after_waiting_for_the_core():
     assert settings["STEREOGEST_BUS"].startswith("--bus ")
 
 
-def install_service(tree, destdir, init, python):
+def install_service(tree, destdir, init, python, *options):
     env = clean_env(DESTDIR=str(destdir), STEREOGEST_PYTHON=str(python))
-    return subprocess.run(["sh", str(tree / "install.sh"), "--service", "--init", init],
-                          env=env, capture_output=True, text=True)
+    return subprocess.run(["sh", str(tree / "install.sh"), "--service", "--init", init,
+                           *options], env=env, capture_output=True, text=True)
 
 
 @needs_sh
@@ -516,6 +529,11 @@ def test_install_service_fills_in_the_paths(tmp_path, init):
     assert stat.S_IMODE(installed.stat().st_mode) == (0o644 if init == "systemd" else 0o755)
     defaults = dest / "etc/default/stereogest"
     assert defaults.read_text() == (ROOT / SERVICE / "stereogest.default").read_text()
+    assert (dest / "etc/udev/rules.d/60-stereogest.rules").read_text() == \
+        (ROOT / SERVICE / "60-stereogest.rules").read_text()
+    dropin = dest / "etc/systemd/system/stereogest.service.d/devmem.conf"
+    assert dropin.is_file() == (init == "systemd")     # the default bus is devmem
+    assert "the system user stereogest is not created here" in run.stdout
     enable = ("systemctl enable --now stereogest" if init == "systemd"
               else "/etc/init.d/stereogest start")
     assert enable in run.stdout
@@ -531,6 +549,84 @@ def test_install_service_fills_in_the_paths(tmp_path, init):
         complaints = [line for line in (verify.stdout + verify.stderr).splitlines()
                       if "stereogest" in line]
         assert verify.returncode == 0 and complaints == [], verify.stdout + verify.stderr
+
+
+def exposure(destdir):
+    """``systemd-analyze security --offline``'s overall exposure of the unit
+    installed under ``destdir`` (drop-ins included)."""
+    run = subprocess.run(["systemd-analyze", "security", "--offline=yes", f"--root={destdir}",
+                          "--no-pager", "stereogest.service"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    found = re.search(r"Overall exposure level for stereogest\.service: ([0-9.]+)", run.stdout)
+    assert found, run.stdout
+    return float(found.group(1))
+
+
+@needs_sh
+@pytest.mark.skipif(shutil.which("systemd-analyze") is None,
+                    reason="systemd-analyze (Debian package systemd) rates the unit")
+def test_the_service_is_confined(tmp_path):
+    """The installed unit's exposure: at most 2.5 with --bus uio, 5.0 with the
+    devmem drop-in (systemd's own scale, 0 safe to 10 unsafe)."""
+    tree = installed_tree(tmp_path)
+    dest = tmp_path / "root"
+    run = install_service(tree, dest, "systemd", sys.executable, "--bus", "uio")
+    assert run.returncode == 0, run.stderr
+    uio = exposure(dest)
+    run = install_service(tree, dest, "systemd", sys.executable, "--bus", "devmem")
+    assert run.returncode == 0, run.stderr
+    devmem = exposure(dest)
+    # verify loads the drop-in beside the unit file too
+    verify = subprocess.run(["systemd-analyze", "verify",
+                             str(dest / "etc/systemd/system/stereogest.service")],
+                            capture_output=True, text=True)
+    assert verify.returncode == 0 and [line for line in (verify.stdout + verify.stderr).splitlines()
+            if "stereogest" in line] == []
+    assert uio <= 2.5 and devmem <= 5.0, (uio, devmem)
+    # The unconfined unit (the same commands, none of the sandbox) rates far worse.
+    plain = dest / "etc/systemd/system/stereogest.service"
+    text = plain.read_text()
+    plain.write_text(text[:text.index("# Who: a user of its own.")] + "\n[Install]\n"
+                     "WantedBy=multi-user.target\n")
+    (dest / "etc/systemd/system/stereogest.service.d/devmem.conf").unlink()
+    assert exposure(dest) > 9.0
+
+
+@needs_sh
+def test_install_service_bus_sets_the_settings_and_the_drop_in(tmp_path):
+    tree = installed_tree(tmp_path)
+    dest = tmp_path / "root"
+    defaults = dest / "etc/default/stereogest"
+    dropin = dest / "etc/systemd/system/stereogest.service.d/devmem.conf"
+    run = install_service(tree, dest, "systemd", sys.executable, "--bus", "uio")
+    assert run.returncode == 0, run.stderr
+    assert not dropin.exists()
+    assert 'STEREOGEST_BUS="--bus uio --uio /dev/stereogest"\n' in defaults.read_text()
+    # The user's own lines survive a change of bus; only STEREOGEST_BUS changes.
+    defaults.write_text(defaults.read_text() + 'STEREOGEST_ARGS="--model mine.json"\n')
+    run = install_service(tree, dest, "systemd", sys.executable, "--bus", "devmem")
+    assert run.returncode == 0 and dropin.is_file(), run.stderr
+    text = defaults.read_text()
+    assert 'STEREOGEST_BUS="--bus devmem"\n' in text and text.endswith(
+        'STEREOGEST_ARGS="--model mine.json"\n')
+    # Without --bus the settings decide: a uio bus written by hand drops the drop-in.
+    defaults.write_text('STEREOGEST_BUS="--bus uio --uio /dev/uio1"\n')
+    run = install_service(tree, dest, "systemd", sys.executable)
+    assert run.returncode == 0 and not dropin.exists(), run.stderr
+    assert defaults.read_text() == 'STEREOGEST_BUS="--bus uio --uio /dev/uio1"\n'
+    assert not list(dest.rglob("*.tmp"))
+
+
+@needs_sh
+@pytest.mark.parametrize("options, says", [
+    (["--bus", "pci"], "--bus must be devmem or uio, got 'pci'"),
+    (["--bus"], "--bus needs devmem or uio"),
+])
+def test_install_service_bad_bus(tmp_path, options, says):
+    tree = installed_tree(tmp_path)
+    run = install_service(tree, tmp_path / "root", "systemd", sys.executable, *options)
+    assert run.returncode == 2 and f"install.sh: error: {says}" in run.stderr
+    assert not (tmp_path / "root").exists()
 
 
 FAKE_PYTHON = """#!/bin/sh
@@ -611,8 +707,10 @@ def test_init_script_starts_reloads_and_stops(tmp_path):
     pidfile, logfile = tmp_path / "stereogest.pid", tmp_path / "stereogest.log"
     env = clean_env(STEREOGEST_DEFAULTS=str(dest / "etc/default/stereogest"),
                     STEREOGEST_PIDFILE=str(pidfile), STEREOGEST_LOG=str(logfile),
-                    FAKE_STATE=str(tmp_path / "checks"))
+                    FAKE_STATE=str(tmp_path / "checks"), STEREOGEST_USER="nobody")
     script = str(dest / "etc/init.d/stereogest")
+    # Started as root, the application gives root up once the bus is open.
+    drop = " --user nobody" if os.geteuid() == 0 else ""
 
     def init(action):
         # as init runs it: SIGHUP at its default (a shell started with it
@@ -630,7 +728,8 @@ def test_init_script_starts_reloads_and_stops(tmp_path):
         assert init("status").stdout == f"stereogest: running (pid {pid})\n"
         settings = service_settings()
         assert _wait_for(lambda: f"fake-python -m sw_hps {settings['STEREOGEST_BUS']} "
-                                 f"{settings['STEREOGEST_ARGS']}" in logfile.read_text())
+                                 f"{settings['STEREOGEST_ARGS']}{drop}\n"
+                                 in logfile.read_text())
         assert "fake-python -m sw_hps --check " + settings["STEREOGEST_BUS"] in logfile.read_text()
         assert init("reload").returncode == 0
         assert _wait_for(lambda: "got HUP" in logfile.read_text())

@@ -273,3 +273,60 @@ def test_fault_retries_only_with_a_mapped_bus(model_file, capsys):
     assert "--fault-retries: only with --bus devmem or uio" in capsys.readouterr().err
     with pytest.raises(ValueError, match="fault_retries must be an int in"):
         supervise(lambda _: 0, where="x", fault_retries=-1)
+
+
+def _uid_of(pid):
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("Uid:"):
+            return {int(x) for x in line.split()[1:]}
+    raise AssertionError(f"no Uid line for process {pid}")
+
+
+needs_root_and_nobody = pytest.mark.skipif(
+    os.geteuid() != 0 or not Path("/proc/self/status").exists()
+    or "nobody" not in Path("/etc/passwd").read_text(),
+    reason="--user is exercised as root, switching to the user 'nobody' (Linux)")
+
+
+@needs_root_and_nobody
+def test_user_gives_up_root_once_the_device_is_mapped(tmp_path, model_file):
+    import pwd
+    nobody = pwd.getpwnam("nobody").pw_uid
+    import shutil
+    import tempfile
+    shared = Path(tempfile.mkdtemp(dir="/tmp"))       # outside tmp_path, which is root's alone
+    shared.chmod(0o755)
+    try:
+        model = shared / "model.json"
+        model.write_bytes(model_file.read_bytes())
+        model.chmod(0o644)
+        device = shared / "uio0"                      # root's alone, as /dev/mem is
+        device.write_bytes(core_image())
+        device.chmod(0o600)
+        app = start_app(model, device, "--user", "nobody")
+        app.wait_for("running as user nobody")
+        child = int(app.wait_for("application started (process", nth=1).split("process ")[1]
+                    .rstrip(")"))
+        app.wait_for("running: bus uio", nth=1)
+        assert _uid_of(app.process.pid) == {nobody} and _uid_of(child) == {nobody}
+        app.process.send_signal(signal.SIGHUP)        # the model is read again, as nobody
+        app.wait_for("running: bus uio", nth=2)
+        app.process.send_signal(signal.SIGTERM)
+        status, lines = app.finish()
+        assert status == 0 and not [x for x in lines if " ERROR " in x], lines
+    finally:
+        shutil.rmtree(shared)
+
+
+@needs_root_and_nobody
+def test_user_who_cannot_read_the_model_is_refused_at_start(tmp_path, model_file, device):
+    import grp
+    import pwd
+    group = grp.getgrgid(pwd.getpwnam("nobody").pw_gid).gr_name
+    tmp_path.chmod(0o700)                             # nobody cannot enter it
+    app = start_app(model_file, device, "--user", "nobody")
+    status, lines = app.finish()
+    assert status == 1
+    assert lines == [f"python -m sw_hps: error: argument --user: 'nobody' cannot read "
+                     f"{model_file}: install the application where nobody:{group} can read "
+                     f"it (e.g. /opt/stereogest), or leave --user out"]
