@@ -163,6 +163,8 @@ log = logging.getLogger(__name__)
 DEFAULT_MIN_SYMBOLS = 5
 #: Error-free steps in a row after which the back-off starts again from its minimum.
 HEALTHY_STEPS = 50
+#: Finished gestures an application keeps in ``results`` (the latest; it runs for days).
+RESULTS_KEPT = 1000
 #: Most points one gesture may have (10 s at 30 frames/s; the thesis' last 1-3 s).
 DEFAULT_MAX_POINTS = 300
 #: Seconds S2 waits for the next pair while the gesture bit says "gesture in progress"
@@ -478,7 +480,7 @@ class GestureApp:
         self.backoff = self.initial_backoff
         self.errors = 0
         self._healthy_steps = 0
-        self.results: deque[GestureResult] = deque(maxlen=1000)
+        self.results: deque[GestureResult] = deque(maxlen=RESULTS_KEPT)
         self._pending: GestureResult | None = None
         self._stop = False
         self._run_results: list[GestureResult] | None = None

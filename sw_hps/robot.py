@@ -61,7 +61,8 @@ except ImportError:
 from soc.hps_interface import (UART_RXDATA, UART_STATUS, UART_STATUS_RX_VALID,
                                UART_STATUS_TX_READY, UART_TXDATA)
 
-from .telegram import find_reply, hex_bytes, status_text, telegram
+from .busfault import FAULT_REMINDER, RepeatFilter
+from .telegram import find_reply, hex_bytes, probe_telegram, status_text, telegram
 
 __all__ = ["Link", "NullLink", "SerialLink", "UartLink", "configure_rn42",
            "normalise_bt_address", "Delivery", "RobotChannel", "deliver_gesture",
@@ -88,6 +89,9 @@ RN42_DISCONNECT = RN42_STATUS_PREFIX + b"DISCONNECT"
 #: Silence the RN-42 needs around ``$$$`` to enter command mode (1 s window, same
 #: guide, command $$$).
 RN42_GUARD_TIME = 1.0
+#: Longest sleep between two calls of ``RobotChannel.while_waiting`` (s): less
+#: than a video frame.
+WAIT_SLICE = 0.01
 #: Consecutive sends without a reply (with ``--robot-ack``) that make a channel
 #: with an RN-42 address set the module up again.
 RN42_FAILURES_BEFORE_SETUP = 3
@@ -432,6 +436,9 @@ class UartLink:
         self.poll_interval = float(poll_interval)
         self._clock = clock
         self._sleep = sleep
+        # the robot channel reads at every poll: a lasting bus fault must not
+        # log a line each time
+        self._read_errors = RepeatFilter(FAULT_REMINDER, clock)
 
     def send(self, data: bytes) -> bool:
         """Write each byte once TX ready; False (logged) on a stuck UART or bus error."""
@@ -461,11 +468,19 @@ class UartLink:
             return bytes(received), exc
         return bytes(received), None
 
+    def _read_error(self, error) -> None:
+        """One warning for a run of bus errors while reading, then at most one
+        per :data:`~sw_hps.busfault.FAULT_REMINDER` with the count left out."""
+        left_out = self._read_errors.admit("bus error while reading")
+        if left_out is not None:
+            log.warning("UART at %#x: bus error while reading: %s%s", self.offset, error,
+                        f" ({left_out} more not logged)" if left_out else "")
+
     def read_available(self) -> bytes:
         """Bytes the UART has received (possibly empty; logged bus errors end it)."""
         received, error = self._read()
         if error is not None:
-            log.warning("UART at %#x: bus error while reading: %s", self.offset, error)
+            self._read_error(error)
         return received
 
     def read_until(self, expected: bytes, timeout: float) -> bytes | None:
@@ -480,7 +495,7 @@ class UartLink:
                 return bytes(received)
             del received[:-4096]       # a bus reading all ones never runs dry
             if error is not None:
-                log.warning("UART at %#x: bus error while reading: %s", self.offset, error)
+                self._read_error(error)
                 return None
             if self._clock() >= deadline:
                 log.debug("read_until %r: got %r", expected, bytes(received[-64:]))
@@ -581,6 +596,15 @@ class RobotChannel:
         that did not bring the brick back, up to ``max_backoff``.
     clock, sleep : callable
         Monotonic seconds and ``sleep(seconds)`` (injectable for tests).
+
+    Attributes
+    ----------
+    while_waiting : callable or None
+        Called with no argument at least every :data:`WAIT_SLICE` seconds while
+        the channel waits (a reply, the RN-42's guard time, its connection), so
+        that the caller's loop keeps up with its inputs meanwhile (the
+        streaming loop reads the FIFO and the posture slave, which keeps only
+        the latest record). It must not send and must not raise.
     """
 
     def __init__(self, link, *, ack_timeout: float | None = None,
@@ -639,6 +663,7 @@ class RobotChannel:
         self._tail = b""              # end of the last bytes read (split status strings)
         self._opens = getattr(link, "opens", None)
         self._told_no_address = False
+        self.while_waiting: Callable[[], None] | None = None
 
     # ---- the RN-42 ---------------------------------------------------------------
     def setup(self) -> bool:
@@ -653,7 +678,7 @@ class RobotChannel:
             raise ValueError("setup needs rn42_address")
         quiet = self._clock() - self._last_write
         if quiet < RN42_GUARD_TIME:
-            self._sleep(RN42_GUARD_TIME - quiet)
+            self._pause(RN42_GUARD_TIME - quiet)
         self.setups += 1
         self.setup_due = None
         # the first attempt says why it failed; later ones are summed up by _schedule
@@ -665,12 +690,29 @@ class RobotChannel:
             self._await_connect()
         return done
 
+    def start(self) -> bool:
+        """At start: set the RN-42 up (:meth:`setup`) unless the brick answers a
+        probe already (:func:`sw_hps.telegram.probe_telegram`). An application
+        started again (a reload, a restart) finds the module still connected,
+        and a connected RN-42 passes ``$$$`` on to the brick as data, which
+        would garble its framing of every telegram after. True if the brick
+        answered or the set-up's connect command went out."""
+        if self.rn42_address is None:
+            return True
+        self._watch(self.link.read_available())      # drops stale bytes
+        written, _ = _write(self.link, probe_telegram())
+        self._last_write = self._clock()
+        if written and self._await_reply(self.ack_timeout or DEFAULT_ACK_TIMEOUT) is not None:
+            log.info("robot link: the NXT answers already; no RN-42 set-up")
+            return True
+        return self.setup()
+
     def _await_connect(self) -> None:
         deadline = self._clock() + self.connect_wait
         while self._clock() < deadline:
             if self._watch(self.link.read_available()) == "connect":
                 return
-            self._sleep(0.01)
+            self._pause(0.01)
         log.info("RN-42: no %s within %.1f s (status strings off until the module restarts, "
                  "or not connected yet)", RN42_CONNECT.decode(), self.connect_wait)
 
@@ -769,9 +811,11 @@ class RobotChannel:
                                        f"the NXT answered status {status_text(status)}"))
         return self._done(Delivery(data, ACKNOWLEDGED, True))
 
-    def _await_reply(self):
+    def _await_reply(self, timeout: float | None = None):
+        """The status of the brick's next MessageWrite reply, or None after
+        ``timeout`` seconds (default ``ack_timeout``)."""
         received = b""
-        deadline = self._clock() + self.ack_timeout
+        deadline = self._clock() + (self.ack_timeout if timeout is None else timeout)
         while True:
             chunk = self.link.read_available()
             if chunk:
@@ -784,7 +828,21 @@ class RobotChannel:
                 if received:
                     log.debug("no MessageWrite reply in %s", hex_bytes(received))
                 return None
-            self._sleep(0.002)
+            self._pause(0.002)
+
+    def _pause(self, seconds: float) -> None:
+        """Sleep ``seconds``, running :attr:`while_waiting` first and then at
+        least every :data:`WAIT_SLICE` seconds."""
+        if self.while_waiting is None:
+            self._sleep(seconds)
+            return
+        end = self._clock() + seconds
+        while True:
+            self.while_waiting()
+            left = end - self._clock()
+            if left <= 0:
+                return
+            self._sleep(min(left, WAIT_SLICE))
 
     def _done(self, delivery: Delivery, lost: bool = False) -> Delivery:
         self.deliveries[delivery.status] += 1

@@ -57,9 +57,11 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import deque
 from dataclasses import dataclass
 from typing import Callable
 
+from .app import RESULTS_KEPT
 from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFault,
                        BusFaultWatch, RepeatFilter, control_fault, describe_bus, lengths_fault,
                        read_id)
@@ -284,7 +286,13 @@ class StreamingApp:
         self._sleep = sleep
         self.poll_interval = float(poll_interval)
         self.on_result = on_result
-        self.results: list[SpottedGesture] = []
+        #: The latest :data:`RESULTS_KEPT` gestures (a service runs for days).
+        self.results: deque[SpottedGesture] = deque(maxlen=RESULTS_KEPT)
+        self._named = None           # the list run() / end_of_stream() return, meanwhile
+        self._deferred: deque[Command] = deque()   # named while a send waited
+        self._keeping_up = False
+        if hasattr(link, "while_waiting"):
+            link.while_waiting = self._keep_up
         self.lost = 0                # FIFO-FULL events
         self.errors = 0
         self._started = False
@@ -329,13 +337,13 @@ class StreamingApp:
         ``max_iterations`` steps); returns the gestures named meanwhile. Never
         raises for faults of the bus, the link or the data."""
         named: list[SpottedGesture] = []
+        self._named = named
         iterations = 0
         try:
             while not self._stop and (max_iterations is None or iterations < max_iterations):
                 if until is not None and until():
                     break
                 iterations += 1
-                before = len(self.results)
                 self._slept = False
                 try:
                     self.step()
@@ -357,7 +365,6 @@ class StreamingApp:
                                   f" ({left_out} more like it not logged)" if left_out else "")
                     self._started = False
                     self._nap(delay)
-                named += self.results[before:]
                 # Never spin: popping records needs no sleep, a long run of it does.
                 self._busy_steps = 0 if self._slept else self._busy_steps + 1
                 if self._busy_steps >= MAX_BUSY_STEPS:
@@ -367,14 +374,18 @@ class StreamingApp:
             log.info("interrupted; stopping")
         finally:
             self._stop = False
+            self._named = None
         return named
 
     def end_of_stream(self) -> list[SpottedGesture]:
         """The source ended (no more frames will come): name what is pending."""
-        before = len(self.results)
-        for detection in self.spotter.flush():
-            self._send(detection)
-        return self.results[before:]
+        named = self._named = []
+        try:
+            for detection in self.spotter.flush():
+                self._send(detection)
+        finally:
+            self._named = None
+        return named
 
     def shutdown(self) -> None:
         """Name what is pending, clear GO and close the link (errors logged)."""
@@ -441,6 +452,12 @@ class StreamingApp:
         if not available:
             self._nap(self.poll_interval)
             return
+        self._deferred += self._take(available)
+        while self._deferred:           # what is named while a send waits comes after it
+            self._send(self._deferred.popleft())
+
+    def _take(self, available: int) -> list[Command]:
+        """Pop ``available`` records with the posture of the latest, and spot."""
         records = [self.fifo.pop_record() for _ in range(available)]
         first = self.spotter.frames
         if self.posture is not None:      # the latest record: the last frame popped
@@ -450,8 +467,24 @@ class StreamingApp:
             read = self.posture is not None and first + k in self.posture.names
             posture = self.posture.names[first + k] if read else None
             named += self.spotter.take(x, y, present, posture, posture_read=read)
-        for command in named:
-            self._send(command)
+        return named
+
+    def _keep_up(self) -> None:
+        """While the robot link waits (a reply, an RN-42 set-up): take what the
+        FIFO holds, so that each frame's posture is read before the slave's next
+        record replaces it; the commands named meanwhile wait for the send under
+        way. Anything amiss is left to the next step."""
+        if self._keeping_up or not self._started or self.bus_watch.active:
+            return
+        self._keeping_up = True
+        try:
+            status = self._checked_status()
+            if not status.full and status.pairs_available:
+                self._deferred += self._take(status.pairs_available)
+        except Exception as exc:        # the next step meets it again and recovers
+            log.debug("while the link waits: %s: %s", type(exc).__name__, exc)
+        finally:
+            self._keeping_up = False
 
     def _send(self, command: Command) -> None:
         name = command.name
@@ -473,6 +506,8 @@ class StreamingApp:
                                 command.named_at, command.score, data, sent, delivery,
                                 posture, share, command.power, command.by_posture)
         self.results.append(result)
+        if self._named is not None:
+            self._named.append(result)
         what = "stop posture held" if command.by_posture else "spotted"
         log.info("%s %s (frames %d-%d, named at %d, score %.2f%s)%s", what, name,
                  result.first, result.last, result.named_at, result.score,

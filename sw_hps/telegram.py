@@ -57,7 +57,7 @@ from soc.hps_interface import GESTURE_NAMES
 
 __all__ = ["GESTURE_NAMES", "ROBOT_ACTIONS", "NXT_DIRECT_NO_REPLY", "NXT_DIRECT_REPLY",
            "NXT_REPLY", "NXT_MESSAGEWRITE", "NXT_INBOX", "NXT_STATUS", "MESSAGEWRITE_REPLY",
-           "POWER_RANGE", "telegram", "find_reply", "status_text", "gesture_index", "hex_bytes"]
+           "POWER_RANGE", "telegram", "probe_telegram", "find_reply", "status_text", "gesture_index", "hex_bytes"]
 
 #: Action the NXT program performs for each gesture (our Table 15).
 ROBOT_ACTIONS = ("drive forward", "drive backward", "turn right (pivot), then forward",
@@ -72,6 +72,8 @@ NXT_DIRECT_REPLY = 0x00
 NXT_REPLY = 0x02
 NXT_MESSAGEWRITE = 0x09
 NXT_INBOX = 0
+#: Inbox of the link probe (:func:`probe_telegram`): one the NXT program never reads.
+PROBE_INBOX = 9
 #: The framed reply to a MessageWrite up to its status byte: length 3, reply, opcode.
 MESSAGEWRITE_REPLY = struct.pack("<H", 3) + bytes([NXT_REPLY, NXT_MESSAGEWRITE])
 #: Error codes a MessageWrite reply can carry (NXT direct commands appendix).
@@ -134,6 +136,15 @@ def telegram(gesture, reply: bool = False, power=None) -> bytes:
     message = message.encode("ascii")
     kind = NXT_DIRECT_REPLY if reply else NXT_DIRECT_NO_REPLY
     body = bytes([kind, NXT_MESSAGEWRITE, NXT_INBOX, len(message) + 1]) + message + b"\x00"
+    return struct.pack("<H", len(body)) + body
+
+
+def probe_telegram() -> bytes:
+    """A MessageWrite with "reply required" to :data:`PROBE_INBOX` (mailbox 10),
+    which the NXT program does not read: whether the brick answers tells
+    whether the link is up, without a command to the robot (the brick answers
+    a MessageWrite even with no program running, status 0xEC)."""
+    body = bytes([NXT_DIRECT_REPLY, NXT_MESSAGEWRITE, PROBE_INBOX, 2]) + b"?\x00"
     return struct.pack("<H", len(body)) + body
 
 

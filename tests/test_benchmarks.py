@@ -275,3 +275,31 @@ def test_spotting_dev_keeps_each_clip_and_judges_variants_on_it(tmp_path, capsys
             module.main(common + bad)
         assert exc.value.code == 2
         assert words in capsys.readouterr().err, bad
+
+
+def test_soak_board_short_run(tmp_path, capsys):
+    """benchmarks/soak_board.py, short: both modes on the small pool with every
+    kind of fault and reloads every 2,000 frames; the application names what
+    the offline spotter names, never crashes, and keeps its descriptors and
+    memory; the last line is the JSON report."""
+    module = load_script("soak_board")
+    out = tmp_path / "soak.json"
+    status = module.main(["--frames", "12000", "--small-pool", "--reload-every", "2000",
+                          "--fault-rate", "0.7", "--quiet", "--json", str(out)])
+    report = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert report == json.loads(out.read_text())
+    for mode in ("thesis", "continuous"):
+        row = report["modes"][mode]
+        assert row["differences"] == 0 and row["crashes"] == 0, (mode, row["mismatches"])
+        assert row["gestures_named"] >= 25 and row["fd_growth"] == 0
+        assert row["rss_growth_mb"] <= 2.0 and row["warm_up_frames"] > 0
+        assert sum(row["faults"].values()) >= 20
+        assert row["reloads"]["good"] >= 2 and row["reloads"]["refused"] >= 2
+        assert row["reloads"]["accepted_corrupt"] == 0 and row["reloads"]["refused_good"] == 0
+        assert row["most_log_lines_per_fault"] <= 10
+        assert set(row) >= {"rss_growth_mb", "fd_growth", "log_lines_per_hour", "differences",
+                            "crashes", "cpu_us_per_frame"}
+    assert status == 0 and report["passed"]
+    with pytest.raises(SystemExit) as exc:
+        module.main(["--faults", "meteor"])
+    assert exc.value.code == 2 and "--faults must name some of" in capsys.readouterr().err

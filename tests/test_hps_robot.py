@@ -404,6 +404,16 @@ def test_uart_link_reads_are_bounded_on_a_bus_of_ones_and_stop_on_bus_errors(cap
     start = fake.now
     assert link.read_until(b"CMD", timeout=5.0) is None and fake.now == start
     assert link.read_available() == b"" and "bus error while reading" in caplog.text
+    # A lasting fault, read at every poll, is one line, then one a minute with the count.
+    caplog.clear()
+    for _ in range(600):                         # ten seconds of polls
+        link.read_available()
+        fake.sleep(1 / 60)
+    assert caplog.text.count("bus error while reading") == 0   # still within the minute
+    fake.sleep(60)
+    link.read_available()
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 1 and lines[0].endswith("(601 more not logged)"), lines
     with pytest.raises(ValueError, match="poll_interval"):
         UartLink(Ones(), 0, poll_interval=0)
 
@@ -479,6 +489,49 @@ def test_robot_ack_missing_reply_fails_within_the_timeout():
     assert delivery.status == FAILED and delivery.written
     assert delivery.reason == "no reply from the NXT within 0.3 s"
     assert 0.3 <= fake.now - start < 0.31 and channel.consecutive_failures == 1
+
+
+def test_while_waiting_runs_through_every_wait():
+    """The caller's loop keeps up while the channel waits for a reply and
+    through an RN-42 set-up: called at once, then at least every WAIT_SLICE."""
+    from sw_hps.robot import WAIT_SLICE
+    fake = FakeTime()
+    rn42, uart, link = uart_robot(fake, connected=False)
+    channel = RobotChannel(link, ack_timeout=0.3, rn42_address="00:16:53:0a:0b:0c",
+                           clock=fake.clock, sleep=fake.sleep)
+    calls = []
+    channel.while_waiting = lambda: calls.append(fake.now)
+    start = fake.now
+    assert channel.send_gesture("back").status == FAILED
+    assert calls[0] == start and fake.now - start >= 0.3
+    assert max(b - a for a, b in zip(calls, calls[1:])) <= WAIT_SLICE + 1e-9
+    calls.clear()
+    channel.setup()                     # the guard time (1 s) and the wait for CONNECT
+    assert len(calls) >= 1.0 / WAIT_SLICE
+    assert max(b - a for a, b in zip(calls, calls[1:])) <= WAIT_SLICE + 1e-9
+
+
+@pytest.mark.parametrize("ack", [None, 0.3])
+def test_start_leaves_a_connected_module_alone(ack):
+    """An application started again finds the RN-42 connected: the probe is
+    answered, no '$$$' reaches the brick as data, and telegrams still arrive."""
+    from sw_hps.telegram import PROBE_INBOX, probe_telegram
+    address = "00:16:53:0a:0b:0c"
+    fake = FakeTime()
+    rn42, uart, link = uart_robot(fake, nxt_address=address, connected=True)
+    channel = RobotChannel(link, ack_timeout=ack, rn42_address=address, clock=fake.clock,
+                           sleep=fake.sleep)
+    assert channel.start() and channel.setups == 0 and rn42.commands == []
+    assert bytes(uart.transmitted) == probe_telegram() and probe_telegram()[4] == PROBE_INBOX
+    assert channel.send_gesture("back").written
+    assert rn42.messages[-1] == b"2"                 # framed right after the probe
+    # Not connected: the probe goes unanswered and the module is set up.
+    fake = FakeTime()
+    rn42, uart, link = uart_robot(fake, nxt_address=address, connected=False)
+    channel = RobotChannel(link, ack_timeout=ack, rn42_address=address, clock=fake.clock,
+                           sleep=fake.sleep)
+    assert channel.start() and channel.setups == 1 and rn42.connected
+    assert b"$$$" in rn42.commands
 
 
 def test_stale_reply_does_not_acknowledge_the_next_telegram():

@@ -66,7 +66,7 @@ def test_board_loop_names_what_the_measured_spotter_names(models, stream):
     # named at the same frames but the last, which the stream's end flushed
     # there and the board names once the still hand's frames show it ended
     # (within the recogniser's longest wait, 4 end delays)
-    assert [r.named_at for r in app.results[:-1]] == [d.named_at for d in golden[:-1]]
+    assert [r.named_at for r in list(app.results)[:-1]] == [d.named_at for d in golden[:-1]]
     assert app.results[-1].named_at - app.results[-1].last <= 4 * models.spotting["end_delay"]
     # each command sent once, in order
     sent = list(app.link.sent)
