@@ -34,6 +34,12 @@ PANELS = ("left camera", "right camera", "left", "right", "disparity", "skin", "
 HISTORY = 900
 
 
+#: Recognised gestures a session keeps (a looped clip or cameras run for days),
+#: and the latest of them the page's state lists.
+GESTURES_KEPT = 1000
+PAGE_GESTURES = 20
+
+
 def _slug(name: str) -> str:
     return name.replace(" ", "-")
 
@@ -73,7 +79,6 @@ class LiveSession:
                 self._commands = PostureCommands(postures)
         self.lock = threading.Lock()
         self.frames = 0
-        self.recognised: list[dict] = []
         self.state = {"frame": -1, "fps": 0.0, "centroid": None, "flag": False, "posture": None,
                       "recognised": None, "telegram": None, "recognised_at": None,
                       "history": [], "gestures": [], "done": False, "error": None}
@@ -86,7 +91,8 @@ class LiveSession:
         self._times: list = []
         self._was_flagged = False
         self._traj = None          # the last frame's trajectory (track() of the history)
-        #: every recognised gesture: name, first and last flagged frame, telegram, score
+        #: the latest GESTURES_KEPT recognised gestures (name, first and last
+        #: flagged frame, telegram, score); the page's state has the latest PAGE_GESTURES
         self.gestures: list[dict] = []
 
     def step(self, left_bytes, right_bytes) -> dict:
@@ -215,8 +221,8 @@ class LiveSession:
             else:
                 entry = self._with_posture(entry)
             with self.lock:
-                self.gestures = self.gestures + [entry]
-                self.state["gestures"] = self.gestures
+                self.gestures = (self.gestures + [entry])[-GESTURES_KEPT:]
+                self.state["gestures"] = self.gestures[-PAGE_GESTURES:]
                 self.state.update(recognised=d.name, telegram=code, recognised_at=n)
                 self.state["history"] = (self.state["history"] + [
                     {"frame": n, "recognised": d.name, "telegram": code, "first": d.first,

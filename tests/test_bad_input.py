@@ -310,6 +310,8 @@ CASES = [
          match="--width"),
     case("live", "--clip", f"{IN}/clip", "--model", f"{IN}/text.json", match="text.json"),
     case("live", "--clip", f"{IN}/clip", "--width", "320", match="--width applies to --left"),
+    case("live", "--left", f"{IN}/adir", "--right", f"{IN}/adir", "--loop",
+         match="--loop replays a clip: only with --clip"),
     case("live", "--clip", f"{IN}/clip", "--height", "240", match="--height applies to"),
     # ------------------------------------------------------------ gestures
     *int_option_cases("gestures", ["-o", f"{OUT}/g.npz"],

@@ -117,6 +117,38 @@ def test_command_replays_a_clip(tmp_path, gesture, capsys):
                                    "gestures": []}
 
 
+def test_command_loops_a_clip(tmp_path, capsys):
+    """--loop replays the clip from its start: each pass names its gesture."""
+    from sim.clip import save_clip
+    clip = render_clip("rotate-right", 1, 320, 240, n_pre_rest=10)
+    path = save_clip(clip, tmp_path / "clip")
+    frames = 2 * clip.frames
+    assert main(["live", "--clip", str(path), "--loop", "--fast", "--frames", str(frames),
+                 "--port", "0", "--quiet", "--json"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].endswith("(Ctrl-C stops)") and ", looped (320x240)" in out[0]
+    report = json.loads(out[-1])
+    assert report["frames"] == frames
+    assert [g["name"] for g in report["gestures"]] == ["rotate-right", "rotate-right"]
+    assert report["gestures"][1]["first"] >= clip.frames
+
+
+def test_session_keeps_the_latest_gestures(models, monkeypatch):
+    """A session that runs for days keeps the latest GESTURES_KEPT gestures and
+    puts the latest PAGE_GESTURES in the page's state."""
+    from types import SimpleNamespace
+
+    import stereogest.live as live
+    monkeypatch.setattr(live, "GESTURES_KEPT", 30)
+    s = LiveSession(PipelineParams.for_frame(320), models)
+    for n in range(45):
+        s._name(n, [SimpleNamespace(name="left", first=n, last=n, score=0.0, power=None,
+                                    posture=None, posture_share=None, by_posture=False)])
+    assert [g["first"] for g in s.gestures] == list(range(15, 45))
+    state, _ = s.snapshot()
+    assert [g["first"] for g in state["gestures"]] == list(range(45 - live.PAGE_GESTURES, 45))
+
+
 @pytest.fixture(scope="module")
 def held_clips(tmp_path_factory):
     """Every gesture, each clip ending inside the spotting hold: the hand is

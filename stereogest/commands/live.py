@@ -6,8 +6,9 @@ its NXT telegram, refreshed as frames arrive. Open the printed address in a
 browser; Ctrl-C stops. When the source ends (a clip's or video's last frame,
 --frames reached, or Ctrl-C on any source, webcams included) with a gesture
 still flagged, that gesture ends there and is named, as 'stereogest pipeline'
-names a gesture a clip ends inside; --json lists every recognised gesture. 320x240 keeps up with 15 frames/s or more on a 2-core
-machine (benchmarks/bench_live.py)."""
+names a gesture a clip ends inside; --json lists the recognised gestures (the
+latest 1,000). --loop replays a clip without end. 320x240 keeps up with 15
+frames/s or more on a 2-core machine (benchmarks/bench_live.py)."""
 from __future__ import annotations
 
 import sys
@@ -37,6 +38,9 @@ def add_arguments(p):
                    help="replay a clip or videos as fast as the model goes")
     p.add_argument("--frames", type=int, default=None,
                    help="stop after this many frame pairs and exit (1..1800)")
+    p.add_argument("--loop", action="store_true",
+                   help="replay the clip from its start whenever it ends, until Ctrl-C "
+                        "(or --frames): a page that runs for hours (with --clip only)")
     p.add_argument("--posture-model", metavar="POSTURE.json", default=None,
                    help="posture classifier for the page's current posture (default: the one "
                         "shipped in sw_hps/models)")
@@ -55,6 +59,15 @@ def add_arguments(p):
     add_json_switch(p)
 
 
+def _looped(clip, frames):
+    """The clip's frame pairs from the start again each time it ends; ``frames``
+    pairs in all (None: without end)."""
+    n = 0
+    while frames is None or n < frames:
+        yield clip.left[n % clip.frames], clip.right[n % clip.frames]
+        n += 1
+
+
 def run(args) -> int:
     import time
 
@@ -69,6 +82,8 @@ def run(args) -> int:
     for option, value in (("--width", args.width), ("--height", args.height)):
         if args.clip is not None and value is not None:
             raise ValueError(f"{option} applies to --left/--right; a clip keeps its own size")
+    if args.loop and args.clip is None:
+        raise ValueError("--loop replays a clip: only with --clip")
     if args.fps is not None:
         check_int("--fps", args.fps, 1, 1000)
     if args.frames is not None:
@@ -82,9 +97,12 @@ def run(args) -> int:
         from sim.clip import load_clip
         clip = load_clip(args.clip)
         width, height, native_fps = clip.width, clip.height, clip.fps
-        count = clip.frames if args.frames is None else min(args.frames, clip.frames)
-        pairs = ((clip.left[n], clip.right[n]) for n in range(count))
-        source, closer = f"clip {args.clip}", None
+        if args.loop:
+            pairs = _looped(clip, args.frames)
+        else:
+            count = clip.frames if args.frames is None else min(args.frames, clip.frames)
+            pairs = ((clip.left[n], clip.right[n]) for n in range(count))
+        source, closer = f"clip {args.clip}" + (", looped" if args.loop else ""), None
     else:
         width, height = args.width or 320, args.height or 240
         closer = StereoSource(args.left, args.right, width=width, height=height,
@@ -149,6 +167,6 @@ def run(args) -> int:
         state, _ = session.snapshot()
         print(json.dumps({"source": source, "width": width, "height": height,
                           "frames": session.frames, "recognised": state["recognised"],
-                          "telegram": state["telegram"], "gestures": state["gestures"]}),
+                          "telegram": state["telegram"], "gestures": session.gestures}),
               flush=True)
     return 0
