@@ -433,7 +433,7 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
         link = UartLink(board.bus, board.uart_offset, clock=clock, sleep=clock.sleep)
         channel = RobotChannel(link, ack_timeout=args.robot_ack,
                                rn42_address=args.rn42_address, clock=clock, sleep=clock.sleep)
-        channel.start()
+        channel.setup()
         posture = PostureTracker(PostureReader(board.bus), posture_model) \
             if posture_model is not None else None
         fifo = FifoPeripheral(board.bus)
@@ -479,6 +479,7 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
             return False
         return reloads_planned < 4 or (reloads["good"] >= 2 and reloads["refused"] >= 1)
     rss_warm = fds_warm = warm_frame = None
+    before_reload = []              # (frame, rss, fds) just before each reload
     fds_start = _open_fds()
     rss_start = _rss_bytes()
     started_cpu = time.process_time()
@@ -507,6 +508,7 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
                 rss_warm, fds_warm, warm_frame = _rss_bytes(), _open_fds(), board.played
             if board.played >= next_reload and board.in_gap:
                 next_reload += reload_every
+                before_reload.append((board.played, _rss_bytes(), _open_fds()))
                 if reload_corrupt:
                     good_bytes = good.read_bytes()
                     good.write_bytes(good_bytes[:len(good_bytes) // 2])   # cut mid-file
@@ -546,9 +548,23 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
         logger.removeHandler(counter)
         logger.propagate = True
     cpu = time.process_time() - started_cpu
-    rss_end, fds_end = _rss_bytes(), _open_fds()
+    rss_final, fds_final = _rss_bytes(), _open_fds()
+    rss_end, fds_end = rss_final, fds_final
     if rss_warm is None:
         rss_warm, fds_warm, warm_frame = rss_start, fds_start, 0
+    # Memory swings by several MB from one reload to the next (the 2.9 MB
+    # posture model parsed, the old models freed): the highest of the samples
+    # taken just before the reloads in the second half after warm-up, against
+    # the highest in the first half, when there are four or more.
+    phase = [sample for sample in before_reload if sample[0] >= warm_frame]
+    if len(phase) >= 4:
+        half = len(phase) // 2
+        rss_warm = max(r for _, r, _ in phase[:half])
+        rss_end = max(r for _, r, _ in phase[half:])
+        measured = (f"highest before the reloads at frames {phase[0][0]}-{phase[half - 1][0]} "
+                    f"and at {phase[half][0]}-{phase[-1][0]}")
+    else:
+        measured = f"at frame {warm_frame} and at the end"
     expected = board.expected
     matcher = difflib.SequenceMatcher(a=expected, b=names, autojunk=False)
     differences = sum(max(i2 - i1, j2 - j1) for op, i1, i2, j1, j2 in matcher.get_opcodes()
@@ -573,9 +589,12 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
         "faults": dict(board.fault_counts), "reloads": reloads,
         "rss_start_mb": round(rss_start / 2**20, 2), "warm_up_frames": warm_frame,
         "rss_warm_mb": round(rss_warm / 2**20, 2),
-        "rss_end_mb": round(rss_end / 2**20, 2),
-        "rss_growth_mb": round((rss_end - rss_warm) / 2**20, 2),
-        "fd_start": fds_start, "fd_growth": fds_end - fds_warm,
+        "rss_end_mb": round(rss_end / 2**20, 2), "rss_final_mb": round(rss_final / 2**20, 2),
+        "rss_peak_mb": round(max([r for _, r, _ in before_reload] + [rss_final, rss_warm])
+                             / 2**20, 2),
+        "rss_growth_mb": round((rss_end - rss_warm) / 2**20, 2), "rss_measured": measured,
+        "rss_before_reloads_mb": [round(r / 2**20, 2) for _, r, _ in before_reload],
+        "fd_start": fds_start, "fd_growth": fds_final - fds_warm,
         "log_lines": counter.lines, "log_lines_per_hour": round(counter.lines / hours, 1),
         "log_levels": dict(counter.levels),
         "most_log_lines_per_fault": max(episode["lines"], default=0),

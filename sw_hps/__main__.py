@@ -291,7 +291,7 @@ def _make_link(args, bus):
     else:
         link = SerialLink(args.serial_device, args.baudrate)
     channel = RobotChannel(link, ack_timeout=args.robot_ack, rn42_address=args.rn42_address)
-    if args.rn42_address is not None and not channel.start():
+    if args.rn42_address is not None and not channel.setup():
         log.warning("RN-42 set-up failed; sending anyway (the module may already be connected)")
     if args.robot_kind != "none" and args.robot_ack is None:
         log.info("%s link: deliveries unconfirmed; --robot-ack asks the NXT to confirm",

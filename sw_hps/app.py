@@ -743,6 +743,9 @@ class GestureApp:
             self._idle_fault(problem)
             return
         self._idle_fault_at = None
+        maintain = getattr(self.link, "maintain", None)
+        if maintain is not None:
+            maintain()           # a due RN-42 set-up now, not after the next gesture
         self._beat("waiting for a gesture (S1)")
         self._pause(self.poll_interval)
 

@@ -667,15 +667,26 @@ class RobotChannel:
 
     # ---- the RN-42 ---------------------------------------------------------------
     def setup(self) -> bool:
-        """Set the RN-42 up now (after the guard time since the last write).
+        """Set the RN-42 up now (after the guard time since the last write),
+        unless the brick answers a probe (:func:`sw_hps.telegram.probe_telegram`)
+        first: a connected module would pass ``$$$`` on to the brick as data.
 
         Returns
         -------
         bool
-            True once the connect command went out (see :func:`configure_rn42`).
+            True if the brick answered, or once the connect command went out
+            (see :func:`configure_rn42`).
         """
         if self.rn42_address is None:
             raise ValueError("setup needs rn42_address")
+        # A connected RN-42 passes '$$$' on to the brick as data, which garbles
+        # its framing of every telegram after: set it up only if the brick is
+        # out of reach (a restarted application, telegrams lost on the bus).
+        if self._brick_answers():
+            log.info("robot link: the NXT answers; no RN-42 set-up needed")
+            self.setup_due = None
+            self._healthy()
+            return True
         quiet = self._clock() - self._last_write
         if quiet < RN42_GUARD_TIME:
             self._pause(RN42_GUARD_TIME - quiet)
@@ -690,22 +701,13 @@ class RobotChannel:
             self._await_connect()
         return done
 
-    def start(self) -> bool:
-        """At start: set the RN-42 up (:meth:`setup`) unless the brick answers a
-        probe already (:func:`sw_hps.telegram.probe_telegram`). An application
-        started again (a reload, a restart) finds the module still connected,
-        and a connected RN-42 passes ``$$$`` on to the brick as data, which
-        would garble its framing of every telegram after. True if the brick
-        answered or the set-up's connect command went out."""
-        if self.rn42_address is None:
-            return True
+    def _brick_answers(self) -> bool:
+        """Whether the brick answers a probe (:func:`sw_hps.telegram.probe_telegram`)
+        within ``ack_timeout`` (default :data:`DEFAULT_ACK_TIMEOUT`)."""
         self._watch(self.link.read_available())      # drops stale bytes
         written, _ = _write(self.link, probe_telegram())
         self._last_write = self._clock()
-        if written and self._await_reply(self.ack_timeout or DEFAULT_ACK_TIMEOUT) is not None:
-            log.info("robot link: the NXT answers already; no RN-42 set-up")
-            return True
-        return self.setup()
+        return written and self._await_reply(self.ack_timeout or DEFAULT_ACK_TIMEOUT) is not None
 
     def _await_connect(self) -> None:
         deadline = self._clock() + self.connect_wait
@@ -772,6 +774,12 @@ class RobotChannel:
             self._schedule("serial port reopened", delay=0.0)
         if self._reads and (self.ack_timeout is not None or self.rn42_address is not None):
             self._watch(self.link.read_available())    # also drops stale replies
+        self.maintain()
+
+    def maintain(self) -> None:
+        """Run a set-up that is due (after trouble, :meth:`_schedule`). Called
+        before each telegram, and by the loops while they idle, so that the
+        set-up's seconds pass between gestures rather than right after one."""
         if self.setup_due is not None and self._clock() >= self.setup_due:
             self._attempt += 1
             done = self.setup()

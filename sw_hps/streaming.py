@@ -398,6 +398,8 @@ class StreamingApp:
             self.link.close()
         except Exception as exc:
             log.warning("could not close the robot link: %s", exc)
+        if getattr(self.link, "while_waiting", None) == self._keep_up:
+            self.link.while_waiting = None      # no cycle keeps this loop alive
 
     # ---- the loop ---------------------------------------------------------------
     def _start(self) -> None:
@@ -449,10 +451,15 @@ class StreamingApp:
             self._start()
             return
         available = status.pairs_available
-        if not available:
-            self._nap(self.poll_interval)
-            return
-        self._deferred += self._take(available)
+        if available:
+            self._deferred += self._take(available)
+        else:
+            maintain = getattr(self.link, "maintain", None)
+            if maintain is not None:
+                maintain()      # a due RN-42 set-up now, not right after the next command
+            if not self._deferred:
+                self._nap(self.poll_interval)
+                return
         while self._deferred:           # what is named while a send waits comes after it
             self._send(self._deferred.popleft())
 

@@ -512,7 +512,7 @@ def test_while_waiting_runs_through_every_wait():
 
 
 @pytest.mark.parametrize("ack", [None, 0.3])
-def test_start_leaves_a_connected_module_alone(ack):
+def test_setup_leaves_a_connected_module_alone(ack):
     """An application started again finds the RN-42 connected: the probe is
     answered, no '$$$' reaches the brick as data, and telegrams still arrive."""
     from sw_hps.telegram import PROBE_INBOX, probe_telegram
@@ -521,7 +521,7 @@ def test_start_leaves_a_connected_module_alone(ack):
     rn42, uart, link = uart_robot(fake, nxt_address=address, connected=True)
     channel = RobotChannel(link, ack_timeout=ack, rn42_address=address, clock=fake.clock,
                            sleep=fake.sleep)
-    assert channel.start() and channel.setups == 0 and rn42.commands == []
+    assert channel.setup() and channel.setups == 0 and rn42.commands == []
     assert bytes(uart.transmitted) == probe_telegram() and probe_telegram()[4] == PROBE_INBOX
     assert channel.send_gesture("back").written
     assert rn42.messages[-1] == b"2"                 # framed right after the probe
@@ -530,8 +530,29 @@ def test_start_leaves_a_connected_module_alone(ack):
     rn42, uart, link = uart_robot(fake, nxt_address=address, connected=False)
     channel = RobotChannel(link, ack_timeout=ack, rn42_address=address, clock=fake.clock,
                            sleep=fake.sleep)
-    assert channel.start() and channel.setups == 1 and rn42.connected
+    assert channel.setup() and channel.setups == 1 and rn42.connected
     assert b"$$$" in rn42.commands
+
+
+def test_maintain_runs_a_due_set_up_while_idle():
+    """The loops call maintain() while they idle: a set-up that is due runs
+    then, so the next telegram goes out without waiting for it."""
+    fake = FakeTime()
+    rn42, uart, channel = set_up_channel(fake)
+    rn42.drop()
+    rn42.reachable = False
+    for _ in range(3):
+        channel.send_gesture("left")
+    due = channel.setup_due
+    setups = channel.setups
+    channel.maintain()                               # not due yet: nothing
+    assert channel.setups == setups and channel.setup_due == due
+    rn42.reachable = True
+    fake.now = due
+    channel.maintain()
+    assert channel.setups == setups + 1 and channel.setup_due is None and rn42.connected
+    start = fake.now
+    assert channel.send_gesture("left").status == ACKNOWLEDGED and fake.now - start < 0.01
 
 
 def test_stale_reply_does_not_acknowledge_the_next_telegram():
@@ -612,10 +633,11 @@ def test_rn42_silent_drop_found_by_missing_replies_with_capped_backoff(caplog):
             attempts.append(fake.now)
     delays = [float(d) for d in re.findall(r"again in ([0-9.]+) s", caplog.text)]
     assert delays[:6] == [2.0, 4.0, 8.0, 16.0, 16.0, 16.0] and set(delays[3:]) == {16.0}
-    # between two set-ups: the back-off, the set-up's wait for %CONNECT (2 s),
-    # the unanswered telegram (0.3 s) and the wait for the next gesture (< 0.8 s)
+    # between two set-ups: the back-off; the set-up's unanswered probe and the
+    # guard time after it (1 s), its wait for %CONNECT (2 s); the unanswered
+    # telegram (0.3 s) and the wait for the next gesture (< 0.8 s)
     gaps = [b - a for a, b in zip(attempts, attempts[1:])]
-    assert all(d + 2.3 <= g <= d + 2.3 + 0.8 for d, g in zip(delays[1:], gaps))
+    assert all(d + 3.3 <= g <= d + 3.3 + 0.8 for d, g in zip(delays[1:], gaps)), (delays, gaps)
     warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
     assert [r.getMessage().split("; ")[1] for r in warnings if "up again" in r.getMessage()] \
         == ["setting the RN-42 up again in {:.1f} s (attempt {})".format(d, n)
@@ -635,7 +657,8 @@ def test_rn42_set_up_waits_out_the_guard_time():
     rn42.drop()
     fake.slept.clear()
     assert channel.setup() is True and rn42.connected   # the model wants 1 s of quiet
-    assert fake.slept[0] == RN42_GUARD_TIME
+    # the probe first (unanswered, 0.3 s), then the rest of the guard time
+    assert sum(fake.slept) >= RN42_GUARD_TIME and fake.slept[-1] < RN42_GUARD_TIME
 
 
 class Rn42OnAPort:
