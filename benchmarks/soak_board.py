@@ -24,6 +24,11 @@ random:
 * ``link_drop``: the NXT's Bluetooth link drops (the RN-42 says so) and the
   brick is out of reach for a while (the application sets the module up again).
 
+A fault waits until the application has taken the last clip's records (it may
+still be sending a telegram or setting the RN-42 up), so that it comes between
+two gestures rather than cutting one; the gap after it leaves the application
+four seconds to recover before the next clip.
+
 Every ``--reload-every`` frames the model file is reloaded as SIGHUP does it
 (a real SIGHUP to this process; its handler calls the function the supervisor
 of :mod:`sw_hps.guard` calls, :func:`sw_hps.__main__._load_models`):
@@ -73,6 +78,8 @@ FAULT_FRAMES = (5, 60)
 #: Frames the application gets after a fault before the next clip (its probes
 #: back off to 1 s, an RN-42 set-up waits its guard time).
 RECOVERY_FRAMES = 120
+#: Frames a fault waits while the application has not yet taken the last clip.
+FAULT_DELAY = 5
 NXT_ADDRESS = "00:16:53:0a:0b:0c"
 SCENE_SEED = 4001
 WARM_UP_SHARE = 0.1
@@ -294,6 +301,7 @@ class Board:
         self.feeding = True             # False: no new clip, idle frames only
         self.clip_log: list[tuple[int, str]] = []        # (first frame, clip)
         self.clip_end = 0               # the frame after the latest clip queued
+        self.postponed = 0              # faults moved on: the last clip not yet taken
 
     def _queue_next(self) -> None:
         clip = self.rng.choice(self.clips)
@@ -345,6 +353,9 @@ class Board:
             if self.fifo.frames_pending == 0 and self.feeding:
                 self._queue_next()
             while self._events and self._events[0][0] <= self.played:
+                if self._events[0][1].startswith("start:") and self._unread_clip_records():
+                    self._postpone(FAULT_DELAY)
+                    break
                 self._event(self._events.pop(0)[1])
             self.fifo.step(1)
             self.played += 1
@@ -352,6 +363,26 @@ class Board:
                 named = [c.name for c in self.reference.take(*self.reference_frames.popleft())]
                 self.expected += named
                 self.sources += [("stream", self.played)] * len(named)
+
+    def _unread_clip_records(self) -> bool:
+        """The application has not yet taken every record of the last clip:
+        a fault now would cut a gesture rather than come between two (the
+        loop may still be busy with a telegram or an RN-42 set-up)."""
+        gap_records = max(0, self.played - self.clip_end)
+        return len(self.fifo.fifo_x) > gap_records or self.fifo.flag
+
+    def _postpone(self, frames: int) -> None:
+        """Move the gap's events (the fault's start, end and settling) on, and
+        make the gap as much longer."""
+        self._events = [(at + frames, what) for at, what in self._events]
+        self.postponed += 1
+        pending = self.fifo._pending
+        x, y = pending[-1][:2] if pending else (self.fifo._last or (0, 0))[:2]
+        pending.extend([(x, y, False, False)] * frames)
+        if self.posture_slave is not None:
+            self.fifo.records.extend([self.no_hand_record] * frames)
+        if self.reference is not None:
+            self.reference_frames.extend([(x, y, False, None)] * frames)
 
     def _event(self, what: str) -> None:
         if self.on_event is not None:
@@ -586,7 +617,8 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
         "clips": board.clips_played, "gestures_expected": len(expected),
         "gestures_named": len(names), "differences": differences, "mismatches": mismatches,
         "crashes": crashes,
-        "faults": dict(board.fault_counts), "reloads": reloads,
+        "faults": dict(board.fault_counts), "faults_postponed": board.postponed,
+        "reloads": reloads,
         "rss_start_mb": round(rss_start / 2**20, 2), "warm_up_frames": warm_frame,
         "rss_warm_mb": round(rss_warm / 2**20, 2),
         "rss_end_mb": round(rss_end / 2**20, 2), "rss_final_mb": round(rss_final / 2**20, 2),
