@@ -168,6 +168,15 @@ def main(argv=None) -> int:
             raise SystemExit(f"soak_live: the server did not start: {first!r} "
                              f"{server.stderr.read()[-500:]!r}")
         port = int(first.split("http://127.0.0.1:")[1].split("/")[0])
+        # Drain both pipes: a full pipe would stall the server, not the load.
+        output = {"stdout": [], "stderr": []}
+
+        def drain(stream, lines):
+            for line in stream:
+                lines.append(line.rstrip("\n"))
+        for name in ("stdout", "stderr"):
+            threading.Thread(target=drain, daemon=True,
+                             args=(getattr(server, name), output[name])).start()
         started = time.monotonic()
         until = started + 60 * args.minutes
         warm = started + args.warm_up
@@ -231,8 +240,10 @@ def main(argv=None) -> int:
         "rss_growth_mb": round(end[2] - at_warm[2], 2),
         "rss_after_load_mb": None if rss_after is None else round(rss_after, 2),
         "fd_before_load": fds_before, "fd_after_load": fds_after,
+        "server_stderr_lines": len(output["stderr"]), "server_stderr_first": output["stderr"][:3],
     }
     report["passed"] = bool(alive and status == 0 and counts["failed"] == 0
+                            and not output["stderr"]
                             and report["rss_growth_mb"] <= MAX_RSS_GROWTH_MB
                             and fds_after == fds_before)
     if args.json:

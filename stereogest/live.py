@@ -16,6 +16,7 @@ has no windows, hence a page.
 from __future__ import annotations
 
 import json
+import sys
 import threading
 import time
 from http import HTTPStatus
@@ -377,12 +378,22 @@ class LiveServer:
             def log_message(self, *args):    # quiet: the command prints its own lines
                 pass
 
+        class Server(ThreadingHTTPServer):
+            daemon_threads = True
+
+            def handle_error(self, request, client_address):
+                # A page closed or reloaded mid-response is no error; anything
+                # else is one line, not socketserver's traceback per request.
+                error = sys.exc_info()[1]
+                if not isinstance(error, (ConnectionError, TimeoutError)):
+                    print(f"live page: request from {client_address[0]} failed: "
+                          f"{type(error).__name__}: {error}", file=sys.stderr, flush=True)
+
         try:
-            self.httpd = ThreadingHTTPServer(("127.0.0.1", port), Handler)
+            self.httpd = Server(("127.0.0.1", port), Handler)
         except OSError as exc:
             raise ValueError(f"--port: cannot listen on 127.0.0.1:{port} ({exc.strerror})") \
                 from None
-        self.httpd.daemon_threads = True
         self.port = self.httpd.server_address[1]
         self.url = f"http://127.0.0.1:{self.port}/"
         self._thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)

@@ -303,3 +303,26 @@ def test_soak_board_short_run(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         module.main(["--faults", "meteor"])
     assert exc.value.code == 2 and "--faults must name some of" in capsys.readouterr().err
+
+
+def test_soak_live_short_run(tmp_path, capsys):
+    """benchmarks/soak_live.py, short: the page under 5 polling clients and the
+    misbehaving one for half a minute answers every good request, keeps its
+    descriptors, writes nothing on stderr and still stops on Ctrl-C."""
+    module = load_script("soak_live")
+    out = tmp_path / "live.json"
+    status = module.main(["--minutes", "0.5", "--clients", "5", "--warm-up", "10",
+                          "--json", str(out)])
+    report = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert report == json.loads(out.read_text())
+    assert report["failed_good_requests"] == 0 and report["good_requests"] > 100
+    assert report["fd_after_load"] == report["fd_before_load"]
+    assert report["server_stderr_lines"] == 0 and report["exit_status_after_ctrl_c"] == 0
+    assert report["fps_median"] > 0
+    answers = report["bad_requests"]
+    assert all(reply == "HTTP/1.0 404 Not Found" for kind in ("unknown path", "unknown panel")
+               for reply in answers.get(kind, {}))
+    assert status == 0 and report["passed"], report
+    with pytest.raises(SystemExit) as exc:
+        module.main(["--clients", "500"])
+    assert exc.value.code == 2 and "--clients must be in 0..200" in capsys.readouterr().err
