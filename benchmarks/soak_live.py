@@ -161,7 +161,10 @@ def main(argv=None) -> int:
     server = subprocess.Popen(
         [sys.executable, "-m", "stereogest", "live", "--clip", str(clip), "--loop", "--port",
          "0", "--quiet"], cwd=str(ROOT), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        # Ctrl-C as in a terminal, even when this runs in the background (which
+        # ignores SIGINT, and Python then keeps it ignored)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         first = server.stdout.readline()
         if " on http://127.0.0.1:" not in first:
