@@ -490,12 +490,22 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
     logger.propagate = False
 
     hup = {"pending": False}
+    # Ctrl-C: the loops return from run() on it; the soak stops after that chunk
+    interrupted = {"yes": False}
+
+    def on_interrupt(signum, frame):
+        interrupted["yes"] = True
+        if running:
+            running[0].request_stop()
+    running = []
+    previous_int = signal.signal(signal.SIGINT, on_interrupt)
     previous = signal.signal(signal.SIGHUP, lambda signum, frame: hup.__setitem__("pending", True))
     reloads = {"good": 0, "refused": 0, "accepted_corrupt": 0, "refused_good": 0}
     names: list[str] = []
     crashes = 0
     board.insert_idle(RECOVERY_FRAMES)
     app = start(models)
+    running.append(app)
     next_reload = reload_every
     reload_corrupt = False
     chunk = 3000
@@ -525,13 +535,15 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
                     return board.played >= target
             try:
                 done = app.run(until=until)
-            except BaseException as exc:    # the loop must never raise: count it, go on
+            except Exception as exc:        # the loop must never raise: count it, go on
                 crashes += 1
                 logging.getLogger("soak").error("crash: %s: %s", type(exc).__name__, exc)
-                app = start(models)
+                app = running[0] = start(models)
                 continue
             names += [r.class_name for r in done
                       if (mode == "continuous") or r.outcome == "recognised"]
+            if interrupted["yes"]:
+                raise KeyboardInterrupt
             board.rn42.messages.clear()
             board.uart.transmitted.clear()
             board.rn42.commands.clear()
@@ -557,7 +569,7 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
                     app.shutdown()
                     models = reloaded
                     board.insert_idle(RECOVERY_FRAMES)
-                    app = start(models)       # a new child: its spotter starts afresh
+                    app = running[0] = start(models)   # a new child: its spotter starts afresh
                     if board.reference is not None:
                         board.reference = StreamSpotter(models[0], SIZES[mode][0])
                 if reload_corrupt:
@@ -576,6 +588,7 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
         app.shutdown()
     finally:
         signal.signal(signal.SIGHUP, previous)
+        signal.signal(signal.SIGINT, previous_int)
         logger.removeHandler(counter)
         logger.propagate = True
     cpu = time.process_time() - started_cpu
@@ -691,9 +704,14 @@ def main(argv=None) -> int:
             print(f"{mode}: the pool ({SIZES[mode][0]}x{SIZES[mode][1]})", flush=True)
         clips = load_pool(mode, args.small_pool, cache, models,
                           posture_model if posture_path else None, quiet=args.quiet)
-        row = soak(mode, args.frames, clips, shipped_model_path(mode), posture_path,
-                   seed=args.seed, fault_rate=args.fault_rate, reload_every=args.reload_every,
-                   work=work, quiet=args.quiet, fault_kinds=kinds)
+        try:
+            row = soak(mode, args.frames, clips, shipped_model_path(mode), posture_path,
+                       seed=args.seed, fault_rate=args.fault_rate,
+                       reload_every=args.reload_every, work=work, quiet=args.quiet,
+                       fault_kinds=kinds)
+        except KeyboardInterrupt:
+            print(f"soak_board: interrupted in the {mode} mode; no report", file=sys.stderr)
+            return 130
         report["modes"][mode] = row
         passed = (row["differences"] == 0 and row["crashes"] == 0 and row["fd_growth"] == 0
                   and row["rss_growth_mb"] <= MAX_RSS_GROWTH_MB)

@@ -311,8 +311,10 @@ def test_soak_live_short_run(tmp_path, capsys):
     descriptors, writes nothing on stderr and still stops on Ctrl-C."""
     module = load_script("soak_live")
     out = tmp_path / "live.json"
+    # half a minute measures the server warming up, not a leak: memory is
+    # judged by the 10-minute run (README)
     status = module.main(["--minutes", "0.5", "--clients", "5", "--warm-up", "10",
-                          "--json", str(out)])
+                          "--max-rss-growth", "50", "--json", str(out)])
     report = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert report == json.loads(out.read_text())
     assert report["failed_good_requests"] == 0 and report["good_requests"] > 100
