@@ -239,6 +239,19 @@ def make_fifo(slave):
             if slave is not None:
                 self.records.extend(records)
 
+        def queue_idle(self, frames: int, record, front: bool = False):
+            """``frames`` frames without a hand (posture ``record``), after what
+            is queued or, with ``front``, before it; returns the centroid they
+            hold (the last one before them)."""
+            pending = self._pending
+            near = pending[0] if front and pending else pending[-1] if pending else None
+            x, y = (near or self._last or (0, 0))[:2]
+            add = pending.extendleft if front else pending.extend
+            add([(x, y, False, False)] * frames)
+            if slave is not None:
+                (self.records.extendleft if front else self.records.extend)([record] * frames)
+            return x, y
+
         def step(self, frames: int = 1) -> int:
             played = 0
             for _ in range(frames):
@@ -264,14 +277,14 @@ class Board:
     """The simulated bus, its slaves and simulated time: frames advance with
     the clock (30 per second) whenever the application touches the bridge."""
 
-    def __init__(self, mode, clips, rng, fault_rate, posture_words, reference=None,
+    def __init__(self, clips, rng, fault_rate, posture_words, reference=None,
                  fault_kinds=FAULT_KINDS):
         from sw_hps.bus import SimBus
         from sw_hps.posture import POSTURE_OFFSET
         from sw_hps.simulated import (SimulatedClock, SimulatedPostureSlave, SimulatedRn42,
                                       SimulatedUart)
         from soc.hps_interface import UART_BASE, FIFO_BASE
-        self.mode, self.clips, self.rng, self.fault_rate = mode, clips, rng, fault_rate
+        self.clips, self.rng, self.fault_rate = clips, rng, fault_rate
         self.fault_kinds = tuple(fault_kinds)
         self.clock = SimulatedClock()
         self.faults = Faults(rng)
@@ -313,7 +326,8 @@ class Board:
         self.fifo.queue(t.smoothed[:, 0], t.smoothed[:, 1], t.flag, present, records)
         if self.reference is None:
             self.expected += clip["expected"]
-            self.sources += [(clip["name"], self.played + self.fifo.frames_pending)] * len(clip["expected"])
+            end = self.played + self.fifo.frames_pending
+            self.sources += [(clip["name"], end)] * len(clip["expected"])
         else:
             self.reference_frames.extend(zip(t.smoothed[:, 0].tolist(),
                                              t.smoothed[:, 1].tolist(), present.tolist(),
@@ -328,23 +342,20 @@ class Board:
             self._events += [(at, "start:" + kind + ":" + str(length)), (at + length, "end"),
                              (at + length + RECOVERY_FRAMES - 10, "settled")]
             gap = max(gap, 5 + length + RECOVERY_FRAMES)
-        last = t.smoothed[-1]
-        self.fifo.queue(np.full(gap, last[0]), np.full(gap, last[1]), np.zeros(gap, bool),
-                        np.zeros(gap, bool),
-                        [self.no_hand_record] * gap if self.posture_slave is not None else None)
+        self._idle(gap)
+
+    def _idle(self, frames: int, front: bool = False) -> None:
+        """Frames without a hand after what is queued, or before it
+        (``front``), for the FIFO, the posture slave and the offline spotter."""
+        x, y = self.fifo.queue_idle(frames, self.no_hand_record, front)
         if self.reference is not None:
-            self.reference_frames.extend([(int(last[0]), int(last[1]), False, None)] * gap)
+            idle = [(int(x), int(y), False, None)] * frames
+            (self.reference_frames.extendleft if front else self.reference_frames.extend)(idle)
 
     def insert_idle(self, frames: int) -> None:
         """Frames without a hand before whatever is queued: the application's
         start (the RN-42 set-up takes seconds) must not cut a gesture."""
-        pending = self.fifo._pending
-        x, y = pending[0][:2] if pending else (self.fifo._last or (0, 0))[:2]
-        pending.extendleft([(x, y, False, False)] * frames)
-        if self.posture_slave is not None:
-            self.fifo.records.extendleft([self.no_hand_record] * frames)
-        if self.reference is not None:
-            self.reference_frames.extendleft([(x, y, False, None)] * frames)
+        self._idle(frames, front=True)
 
     def advance(self) -> None:
         """Play the frames the clock has reached, and the faults due by then."""
@@ -376,13 +387,7 @@ class Board:
         make the gap as much longer."""
         self._events = [(at + frames, what) for at, what in self._events]
         self.postponed += 1
-        pending = self.fifo._pending
-        x, y = pending[-1][:2] if pending else (self.fifo._last or (0, 0))[:2]
-        pending.extend([(x, y, False, False)] * frames)
-        if self.posture_slave is not None:
-            self.fifo.records.extend([self.no_hand_record] * frames)
-        if self.reference is not None:
-            self.reference_frames.extend([(x, y, False, None)] * frames)
+        self._idle(frames)
 
     def _event(self, what: str) -> None:
         if self.on_event is not None:
@@ -440,7 +445,6 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
     from sw_hps import __main__ as board_main
     from sw_hps.fifo import FifoPeripheral
     from sw_hps.posture import POSTURE_WORD_COUNT, PostureReader, PostureTracker
-    from sw_hps.robot import RobotChannel, UartLink
     from sw_hps.app import GestureApp
     from sw_hps.streaming import StreamingApp, StreamSpotter
 
@@ -454,17 +458,14 @@ def soak(mode: str, frames: int, clips, models_path: Path, posture_path, *, seed
     models = board_main._load_models(args)
     rng = random.Random(seed)
     reference = StreamSpotter(models[0], SIZES[mode][0]) if mode == "continuous" else None
-    board = Board(mode, clips, rng, fault_rate,
+    board = Board(clips, rng, fault_rate,
                   POSTURE_WORD_COUNT if models[1] is not None else 0, reference, fault_kinds)
     clock = board.clock
 
     def start(models):
         """What the supervisor's child does: the link, then the loop's object."""
         gestures, posture_model = models
-        link = UartLink(board.bus, board.uart_offset, clock=clock, sleep=clock.sleep)
-        channel = RobotChannel(link, ack_timeout=args.robot_ack,
-                               rn42_address=args.rn42_address, clock=clock, sleep=clock.sleep)
-        channel.setup()
+        channel = board_main._make_link(args, board.bus, clock=clock, sleep=clock.sleep)
         posture = PostureTracker(PostureReader(board.bus), posture_model) \
             if posture_model is not None else None
         fifo = FifoPeripheral(board.bus)

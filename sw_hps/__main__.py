@@ -281,16 +281,19 @@ def parse_args(argv):
     return args
 
 
-def _make_link(args, bus):
+def _make_link(args, bus, *, clock=time.monotonic, sleep=time.sleep):
     """The robot link of --robot, in a channel that knows --robot-ack and
-    --rn42-address (the RN-42 set up here unless the NXT answers already)."""
+    --rn42-address (the RN-42 set up here unless the NXT answers already);
+    ``clock`` and ``sleep`` for the UART and the channel (simulated time in
+    the soak, benchmarks/soak_board.py)."""
     if args.robot_kind == "none":
         link = NullLink()
     elif args.robot_kind == "uart":
-        link = UartLink(bus, args.uart_offset)
+        link = UartLink(bus, args.uart_offset, clock=clock, sleep=sleep)
     else:
         link = SerialLink(args.serial_device, args.baudrate)
-    channel = RobotChannel(link, ack_timeout=args.robot_ack, rn42_address=args.rn42_address)
+    channel = RobotChannel(link, ack_timeout=args.robot_ack, rn42_address=args.rn42_address,
+                           clock=clock, sleep=sleep)
     if args.rn42_address is not None and not channel.setup():
         log.warning("RN-42 set-up failed; sending anyway (the module may already be connected)")
     if args.robot_kind != "none" and args.robot_ack is None:
