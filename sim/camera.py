@@ -10,7 +10,7 @@ see :mod:`sim.model.ycbcr`), one byte per PCLK cycle, framed by two signals:
 A byte is valid when VSYNC is low and HREF is high. :func:`camera_waveform` turns
 frames into per-cycle ``vsync`` / ``href`` / ``data`` arrays, the fault injectors
 damage a waveform the way a real link can (cut frame, HREF glitch, VSYNC inside a
-line, camera silent for a frame period), :func:`pack_pins` flattens it for the
+line, camera silent for a frame period, PCLK stopped), :func:`pack_pins` flattens it for the
 C++ Verilator harness, and :func:`capture_words` is the golden model of
 :class:`hdl.camera_capture.CameraCapture`: the words it emits from a waveform.
 
@@ -35,7 +35,8 @@ import numpy as np
 from .model.validation import check_image, check_int
 
 __all__ = ["CameraTiming", "CameraWaveform", "camera_waveform", "cut_frame", "href_glitch",
-           "vsync_in_line", "stop_frame", "pack_pins", "capture_words", "WORD_DTYPE"]
+           "vsync_in_line", "stop_frame", "stop_clock", "pack_pins", "CLOCK_STOPPED",
+           "capture_words", "WORD_DTYPE"]
 
 #: Upper bound of every timing field (cycles).
 TIMING_MAX = 1 << 20
@@ -90,6 +91,9 @@ class CameraWaveform:
     line_start : (F, H) int64, cycle of the first byte (Y0) of line l of frame f
     frame_end : (F,) int64, cycle after frame f's back porch (the next VSYNC pulse)
     faults : list of str, the faults injected so far (for messages)
+    stopped : (n,) bool array or None
+        Cycles in which PCLK does not rise (:func:`stop_clock`): the receiver
+        sees nothing of them. None: the clock never stops.
     """
 
     vsync: np.ndarray
@@ -102,6 +106,7 @@ class CameraWaveform:
     line_start: np.ndarray
     frame_end: np.ndarray
     faults: list = field(default_factory=list)
+    stopped: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.vsync)
@@ -133,7 +138,9 @@ class CameraWaveform:
 
     def _damaged(self, what: str) -> "CameraWaveform":
         return replace(self, vsync=self.vsync.copy(), href=self.href.copy(),
-                       data=self.data.copy(), faults=self.faults + [what])
+                       data=self.data.copy(), faults=self.faults + [what],
+                       stopped=(np.zeros(len(self), bool) if self.stopped is None
+                                else self.stopped.copy()))
 
 
 def _check_frames(frames) -> np.ndarray:
@@ -259,10 +266,28 @@ def stop_frame(wave: CameraWaveform, frame: int) -> CameraWaveform:
     return out
 
 
+def stop_clock(wave: CameraWaveform, cycle: int, length: int) -> CameraWaveform:
+    """PCLK stops for ``length`` cycles from ``cycle`` (held low; the pins keep
+    their schedule, so what the camera sent meanwhile is lost), then runs again."""
+    cycle = check_int("cycle", cycle, 0, len(wave) - 1)
+    length = check_int("length", length, 1, len(wave) - cycle)
+    out = wave._damaged(f"stop_clock(cycle={cycle}, length={length})")
+    out.stopped[cycle:cycle + length] = True
+    return out
+
+
+#: Bit of a packed pin sample (:func:`pack_pins`) set when PCLK does not rise.
+CLOCK_STOPPED = 1 << 15
+
+
 def pack_pins(wave: CameraWaveform) -> np.ndarray:
-    """Pins of each cycle as one uint16: ``(vsync << 9) | (href << 8) | data``."""
-    return ((wave.vsync.astype(np.uint16) << 9) | (wave.href.astype(np.uint16) << 8)
+    """Pins of each cycle as one uint16: ``(vsync << 9) | (href << 8) | data``,
+    with :data:`CLOCK_STOPPED` in the cycles where PCLK stops."""
+    pins = ((wave.vsync.astype(np.uint16) << 9) | (wave.href.astype(np.uint16) << 8)
             | wave.data.astype(np.uint16))
+    if wave.stopped is not None:
+        pins |= wave.stopped.astype(np.uint16) << 15
+    return pins
 
 
 # ------------------------------------------------------------------ capture model
@@ -286,7 +311,8 @@ def capture_words(wave: CameraWaveform, width: int, height: int) -> np.ndarray:
       y counts HREF rising edges from 0); phase 0 is luma, phase 1 chroma; each phase-1
       byte completes the word of pixel x (then x += 1); HREF falling between the two
       bytes of a pair drops the lone luma byte;
-    * words with x >= width or y >= height are not emitted (crop).
+    * words with x >= width or y >= height are not emitted (crop);
+    * cycles where PCLK stops (``wave.stopped``) do not exist for the receiver.
 
     Returns
     -------
@@ -300,8 +326,11 @@ def capture_words(wave: CameraWaveform, width: int, height: int) -> np.ndarray:
     prev_href = False
     phase = x = y = lines = 0
     luma = 0
-    for c, (v, h, d) in enumerate(zip(wave.vsync.tolist(), wave.href.tolist(),
-                                      wave.data.tolist())):
+    stopped = wave.stopped.tolist() if wave.stopped is not None else [False] * len(wave)
+    for c, (v, h, d, off) in enumerate(zip(wave.vsync.tolist(), wave.href.tolist(),
+                                           wave.data.tolist(), stopped)):
+        if off:
+            continue
         if v:
             active = False
             seen = not h

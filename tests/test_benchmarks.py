@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,6 +14,7 @@ BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 def load_script(name: str):
     spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCHMARKS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 
@@ -156,6 +158,7 @@ def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
     spec = importlib.util.spec_from_file_location("continuous_sessions", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     out = tmp_path / "s.json"
     assert module.main(["--sessions", "1", "--per-session", "2", "--json", str(out)]) == 0
@@ -179,6 +182,7 @@ def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
     spec = importlib.util.spec_from_file_location("continuous_sessions", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     out = tmp_path / "s.json"
     assert module.main(["--sessions", "1", "--per-session", "1", "--distractors",
@@ -328,3 +332,33 @@ def test_soak_live_short_run(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         module.main(["--clients", "500"])
     assert exc.value.code == 2 and "--clients must be in 0..200" in capsys.readouterr().err
+
+
+def test_soak_hardware_short_run(tmp_path, capsys):
+    """benchmarks/soak_hardware.py, short: the Verilated core at 320x240 for 90
+    frames with a camera fault in every slot allowed and one overflow of a
+    16-entry FIFO; every word popped equals the golden model's, every fault is
+    recovered from, no frame is lost without a fault, FIFO-FULL is seen."""
+    module = load_script("soak_hardware")
+    out = tmp_path / "soak.json"
+    status = module.main(["--frames", "90", "--fifo-depth", "16", "--overflows", "1",
+                          "--fault-every", "1", "--pool", "30", "--progress", "0",
+                          "--json", str(out)])
+    report = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert report == json.loads(out.read_text())
+    assert report["differences"] == 0 and report["unexplained_losses"] == 0, report
+    assert report["faults"] >= 8 and report["recoveries"] == report["faults"], report
+    assert report["overflow_full_seen"] == 1 and report["overflow_frames_dropped"] > 0
+    assert report["words_checked"] >= 40
+    assert len([k for k, row in report["per_kind"].items() if row["faults"]]) >= 3
+    # an unplugged camera costs the frames it was away, a glitch at most its frame
+    for kind, row in report["frames_lost"].items():
+        assert row["max_beyond_away"] <= 1, (kind, row)
+    assert status == 0 and report["passed"]
+    with pytest.raises(SystemExit) as exc:
+        module.main(["--frames", "50", "--overflows", "1"])
+    assert exc.value.code == 2 and "--frames must be at least" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        module.main(["--fifo-depth", "100"])
+    assert exc.value.code == 2 and "--fifo-depth must be a power of two" in \
+        capsys.readouterr().err

@@ -8,8 +8,9 @@ import pytest
 from amaranth.sim import Simulator
 
 from hdl.camera_capture import CameraCapture
-from sim.camera import (CameraTiming, camera_waveform, capture_words, cut_frame,
-                        href_glitch, pack_pins, stop_frame, vsync_in_line)
+from sim.camera import (CLOCK_STOPPED, CameraTiming, camera_waveform, capture_words,
+                        cut_frame, href_glitch, pack_pins, stop_clock, stop_frame,
+                        vsync_in_line)
 
 W, H = 24, 6
 TIMING = CameraTiming(vsync_cycles=100, front_porch=20, hblank=16, back_porch=30)
@@ -102,6 +103,33 @@ def test_capture_model_of_faults():
     # frame cut at line 2, frame stopped: the others complete
     words = capture_words(stop_frame(cut_frame(wave, 0, 2), 1), 8, 4)
     assert len(words) == 2 * 8 + 32 and (words["sof"] == 1).sum() == 2
+
+
+def test_capture_model_of_a_stopped_clock():
+    """PCLK stopped: the receiver sees nothing of those cycles. In a line the
+    bytes are lost (the line comes short); in the blanking nothing is; the pins
+    carry the stop as CLOCK_STOPPED."""
+    cams = _frames(2, 8, h=4, w=8)
+    wave = camera_waveform(cams, CameraTiming(6, 2, 3, 2))
+    clean = capture_words(wave, 8, 4)
+    c = wave.cycle(0, 1, 4)
+    stopped = stop_clock(wave, c, 4)            # pixels 2 and 3 of line 1
+    words = capture_words(stopped, 8, 4)
+    assert len(words) == len(clean) - 2
+    assert stopped.faults == [f"stop_clock(cycle={c}, length=4)"]
+    line1 = words[(words["y"] == 1) & (words["cycle"] < wave.frame_end[0])]
+    assert line1["x"].tolist() == list(range(6))
+    assert line1["luma"][2] == cams[0, 1, 8]     # pixel 4's bytes arrive as pixel 2
+    pins = pack_pins(stopped)
+    assert ((pins & CLOCK_STOPPED) != 0).sum() == 4 and pins[c] & CLOCK_STOPPED
+    assert not (pack_pins(wave) & CLOCK_STOPPED).any()
+    # inside the vertical blanking the frame is untouched
+    blank = stop_clock(wave, int(wave.vsync_start[1]) + 1, 3)
+    same = capture_words(blank, 8, 4)
+    assert (same[["sof", "sol", "luma", "chroma", "x", "y"]]
+            == clean[["sof", "sol", "luma", "chroma", "x", "y"]]).all()
+    with pytest.raises(ValueError, match="length"):
+        stop_clock(wave, len(wave) - 2, 3)
 
 
 def test_capture_matches_model_with_crop_and_faults():

@@ -7,7 +7,8 @@ three clocks, no Python per cycle):
   equal the golden model's, and ``stereogest pipeline --backend verilator`` writes the same
   trajectory.csv as ``--backend model``;
 * bad camera input on small frames (cut frame, HREF glitch, VSYNC inside a line,
-  reset of every domain mid-frame, one camera silent for a frame): the damaged
+  reset of every domain mid-frame, one camera silent for a frame, a PCLK that
+  stops inside a line; one that stops between frames loses nothing): the damaged
   frame produces no record, the pipeline resynchronises at the next frame, and
   every following record is bit-exact again.
 """
@@ -84,6 +85,11 @@ def _waves(fault: str):
         left = camera.vsync_in_line(left, FAULT, 9, 30)
     elif fault == "stop_frame":
         right = camera.stop_frame(right, FAULT)
+    elif fault == "stop_clock":
+        left = camera.stop_clock(left, left.cycle(FAULT, 4, 10), 25)
+    elif fault == "stop_clock_in_blanking":
+        # PCLK stops between frames: nothing is lost
+        right = camera.stop_clock(right, int(right.frame_end[FAULT]) + 2, 40)
     elif fault == "reset":
         # the pipeline clock is half the camera's: camera cycle c ~ pipeline cycle c / 2
         reset_at = int(left.cycle(FAULT, 6, 0)) // 2
@@ -91,7 +97,8 @@ def _waves(fault: str):
 
 
 @pytest.mark.parametrize("fault", ["none", "cut_frame", "href_glitch", "vsync_in_line",
-                                   "stop_frame", "reset"])
+                                   "stop_frame", "stop_clock", "stop_clock_in_blanking",
+                                   "reset"])
 def test_pipeline_resynchronises_after_bad_camera_input(fault):
     lefts, rights, left, right, reset_at = _waves(fault)
     run = run_pipeline(left, right, WIDTH, HEIGHT, SMALL, fifo_depth=256, reset_at=reset_at)
@@ -103,7 +110,7 @@ def test_pipeline_resynchronises_after_bad_camera_input(fault):
     assert np.array_equal(np.stack([tail["centroid_x"], tail["centroid_y"]], 1),
                           cents[-after:]), fault
     assert np.array_equal(tail["area"], areas[-after:]), fault
-    if fault == "none":
+    if fault in ("none", "stop_clock_in_blanking"):
         assert len(rec) == FRAMES and run.stats["faults"] == 0
         expected = track(cents, areas, SMALL)
         assert np.array_equal(np.stack([rec["x"], rec["y"]], 1), expected.smoothed)

@@ -69,22 +69,26 @@ def _wrapper(core) -> str:
             f"  stereogest_core core({', '.join(connections)});\nendmodule\n")
 
 
-def _make_core(width, height, params, clocks: Clocks, rectification=None, vga_scale=None):
+def _make_core(width, height, params, clocks: Clocks, rectification=None, vga_scale=None,
+               fifo_depth=None):
     from soc.core import VGA_SCALE, StereogestCore
+    from soc.hps_interface import FIFO_DEPTH
     return StereogestCore(width, height, params, rectification=rectification,
                           sync_freq=clocks.sync_hz, config_freq=1e12 / clocks.config_ps,
-                          vga_scale=VGA_SCALE if vga_scale is None else vga_scale)
+                          vga_scale=VGA_SCALE if vga_scale is None else vga_scale,
+                          fifo_depth=FIFO_DEPTH if fifo_depth is None else fifo_depth)
 
 
 def build_system(width: int, height: int, params: PipelineParams = PipelineParams(),
                  clocks: Clocks = Clocks(), jobs: int | None = None,
                  log=None, emission: str = EMISSIONS[0], rectification=None,
-                 vga_scale: int | None = None) -> Path:
+                 vga_scale: int | None = None, fifo_depth: int | None = None) -> Path:
     """Build (or reuse, cached under ``<build>/verilator/system-*``) the Verilated
     core with the harness, its Verilog written as ``emission`` says
     (:data:`verif.verilator.EMISSIONS`), with ``rectification``'s stages if given,
-    its VGA frame buffer at ``vga_scale`` (None: the core's default); returns the
-    executable."""
+    its VGA frame buffer at ``vga_scale`` (None: the core's default), its
+    centroid FIFOs ``fifo_depth`` entries deep (None: the board's,
+    :data:`soc.hps_interface.FIFO_DEPTH`); returns the executable."""
     from soc.core import CORE_NAME, VGA_SCALE, strip_zero_init
     vga_scale = VGA_SCALE if vga_scale is None else vga_scale
     spec = dict(width=width, height=height, sync_ps=clocks.sync_ps,
@@ -93,6 +97,8 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
                 **params.as_dict())
     if rectification is not None:
         spec["rectification"] = rectification.digest()
+    if fifo_depth is not None:
+        spec["fifo_depth"] = fifo_depth
     key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
     digest = sources_digest(["hdl", "soc"], [HARNESS, Path(__file__)])   # the wrapper too
     folder = build_root() / f"system-{key}-{digest}"
@@ -101,7 +107,7 @@ def build_system(width: int, height: int, params: PipelineParams = PipelineParam
         return exe
     if log is not None:
         log(f"building the Verilated system ({width}x{height}; a few minutes, cached)")
-    core = _make_core(width, height, params, clocks, rectification, vga_scale)
+    core = _make_core(width, height, params, clocks, rectification, vga_scale, fifo_depth)
     text = strip_zero_init(simulation_verilog(core, CORE_NAME, emission=emission)) \
         + _wrapper(core)
     return verilate(folder, f"{TOP}.v", text, spec, TOP, "system_harness", HARNESS,
@@ -126,11 +132,16 @@ class VerilatorSystem:
         The core's rectification stages (their maps), as :func:`build_system`.
     vga_scale : int in [1, 2], optional
         Resolution of the core's VGA frame buffer (None: its default).
+    pins : (left, right) uint16 arrays, optional
+        The cameras' packed pins (:func:`sim.camera.pack_pins`) to play instead
+        of the clip's waveforms (the frames then only give the size); a long run
+        gives more with :meth:`append_pins`.
     """
 
     def __init__(self, left_frames, right_frames, params: PipelineParams = PipelineParams(),
                  *, clocks: Clocks = Clocks(), stage: int = 5, log=None,
-                 exe: Path | None = None, rectification=None, vga_scale: int | None = None):
+                 exe: Path | None = None, rectification=None, vga_scale: int | None = None,
+                 pins=None):
         from hdl.gesture_pipeline import pipeline_timing
         from sim.camera import pack_pins
         from soc.vga_timing import VGA_640x480_60
@@ -149,9 +160,11 @@ class VerilatorSystem:
         timing = clip_timing(self.width, self.height, flush, clocks)
         self._tmp = tempfile.TemporaryDirectory(prefix="stereogest-system-")
         tmp = Path(self._tmp.name)
-        for name, wave in zip(("left.bin", "right.bin"),
-                              camera_waveforms(left_frames, right_frames, timing)):
-            pack_pins(wave).astype("<u2").tofile(tmp / name)
+        if pins is None:
+            pins = [pack_pins(wave) for wave in
+                    camera_waveforms(left_frames, right_frames, timing)]
+        for name, samples in zip(("left.bin", "right.bin"), pins):
+            np.asarray(samples, dtype="<u2").tofile(tmp / name)
         mode = VGA_640x480_60
         self.vga_size = (mode.h_active, mode.v_active)
         args = [str(self.exe), str(tmp / "left.bin"), str(tmp / "right.bin"),
@@ -189,6 +202,14 @@ class VerilatorSystem:
         """Run the hardware for ``seconds`` of simulated time."""
         cycles, done = self._ask(f"t {max(1, int(round(seconds * 1e9)))}").split()
         self.cycles, self.cameras_done = int(cycles), done == "1"
+
+    def append_pins(self, left, right) -> None:
+        """Play these packed pin samples (:func:`sim.camera.pack_pins`) after
+        what each camera has been given so far."""
+        tmp = Path(self._tmp.name)
+        for name, samples in (("more-left.bin", left), ("more-right.bin", right)):
+            np.asarray(samples, dtype="<u2").tofile(tmp / name)
+        self._ask(f"a {tmp / 'more-left.bin'} {tmp / 'more-right.bin'}")
 
     def vga_frame(self) -> np.ndarray:
         """The next whole VGA frame's active area (red channel), (height, width) uint8."""

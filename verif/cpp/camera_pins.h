@@ -10,7 +10,10 @@
 #include <vector>
 
 // A camera-pin file: little-endian uint16 per PCLK cycle,
-// (vsync << 9) | (href << 8) | data (sim.camera.pack_pins).
+// (stopped << 15) | (vsync << 9) | (href << 8) | data (sim.camera.pack_pins);
+// ``stopped``: the camera's PCLK does not rise in that cycle (sim.camera.stop_clock).
+constexpr uint16_t CLOCK_STOPPED = 1u << 15;
+constexpr uint16_t CAMERA_IDLE = 1u << 9;  // after the last sample: VSYNC high
 inline bool read_pins(const char* path, std::vector<uint16_t>& out) {
     FILE* f = std::fopen(path, "rb");
     if (!f) return false;
@@ -69,11 +72,14 @@ inline long next_edge(const Clock* clocks, int n) {
     return t;
 }
 
-// Put sample ``index`` of camera ``cam`` (0 left, 1 right) on the model's pins;
-// after the last sample the camera idles with VSYNC high.
+// Sample ``index`` of a camera's pins; after the last one the camera idles.
+inline uint16_t camera_sample(const std::vector<uint16_t>& pins, long index) {
+    return index < static_cast<long>(pins.size()) ? pins[index] : CAMERA_IDLE;
+}
+
+// Put a sample on camera ``cam``'s (0 left, 1 right) data and sync pins.
 template <class Top>
-void drive_camera(Top* top, int cam, const std::vector<uint16_t>& pins, long index) {
-    const uint16_t word = index < static_cast<long>(pins.size()) ? pins[index] : (1u << 9);
+void drive_word(Top* top, int cam, uint16_t word) {
     if (cam == 0) {
         top->left_vsync = (word >> 9) & 1;
         top->left_href = (word >> 8) & 1;
@@ -83,4 +89,10 @@ void drive_camera(Top* top, int cam, const std::vector<uint16_t>& pins, long ind
         top->right_href = (word >> 8) & 1;
         top->right_data = word & 0xff;
     }
+}
+
+// The camera's PCLK line: its clock's level, held low through a stopped cycle
+// (the sample put on the pins at the falling edge before says so).
+inline bool camera_clock_line(bool level, uint16_t word) {
+    return level && !(word & CLOCK_STOPPED);
 }

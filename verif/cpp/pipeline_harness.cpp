@@ -5,8 +5,9 @@
 // usage: pipeline_harness LEFT RIGHT OUT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
 //                         DRAIN RESET_AT RESET_CYCLES VIDEO_SELECT VIDEO_OUT POSTURE_OUT
 //   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
-//                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
-//                 last sample the camera idles with VSYNC high
+//                 (stopped << 15) | (vsync << 9) | (href << 8) | data
+//                 (sim.camera.pack_pins); after the last sample the camera idles
+//                 with VSYNC high
 //   OUT           one record per frame: 7 little-endian int64
 //                 (cycle, x, y, flag, centroid_x, centroid_y, area)
 //   *_PS          clock periods and phases (first rising edge) in picoseconds
@@ -63,6 +64,7 @@ int main(int argc, char** argv) {
     std::vector<uint16_t> video;
     std::vector<uint32_t> posture;
     long index[2] = {-1, -1};  // camera sample on the pins
+    uint16_t word[2] = {CAMERA_IDLE, CAMERA_IDLE};
     long cycles = 0, done_at = -1;
     const long initial_reset = 8;
     auto start = std::chrono::steady_clock::now();
@@ -93,12 +95,13 @@ int main(int argc, char** argv) {
             c.toggle();
             if (k > 0 && !c.level) {  // camera falling edge: the next byte on the pins
                 const int cam = k - 1;
-                drive_camera(top, cam, pins[cam], ++index[cam]);
+                word[cam] = camera_sample(pins[cam], ++index[cam]);
+                drive_word(top, cam, word[cam]);
             }
         }
         top->clk = clocks[0].level;
-        top->cam_left_clk = clocks[1].level;
-        top->cam_right_clk = clocks[2].level;
+        top->cam_left_clk = camera_clock_line(clocks[1].level, word[0]);
+        top->cam_right_clk = camera_clock_line(clocks[2].level, word[1]);
         top->eval();
         if (done_at < 0 && cameras_done(index, pins)) done_at = cycles + drain;
     }

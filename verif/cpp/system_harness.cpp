@@ -6,8 +6,9 @@
 // usage: system_harness LEFT RIGHT SYNC_PS LEFT_PS LEFT_PHASE RIGHT_PS RIGHT_PHASE
 //                       CONFIG_PS VGA_PS STAGE VGA_WIDTH VGA_HEIGHT
 //   LEFT, RIGHT   camera pins per PCLK cycle, little-endian uint16
-//                 (vsync << 9) | (href << 8) | data (sim.camera.pack_pins); after the
-//                 last sample the camera idles with VSYNC high
+//                 (stopped << 15) | (vsync << 9) | (href << 8) | data
+//                 (sim.camera.pack_pins); after the last sample the camera idles
+//                 with VSYNC high (until "a" gives more)
 //   *_PS          clock periods (and camera phases) in picoseconds
 //   STAGE         stage_select (SW[9:7]) for the whole run
 //   VGA_*         active area of the VGA mode
@@ -19,7 +20,10 @@
 //   v PATH        the next whole VGA frame's active area, red channel, to PATH
 //                 (uint8, row-major), only the VGA clock running -> "ok"
 //   u             UART TX line changes since the last "u" -> "N PS LEVEL PS LEVEL ..."
+//   a LEFT RIGHT  append these pin files to the cameras' (a long run feeds them in
+//                 pieces; the samples played so far are freed) -> "ok"
 //   q             -> one JSON line of statistics, then exit
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -41,14 +45,31 @@ struct System {
     Vstereogest_system* top;
     Clock clocks[NCLOCKS];
     std::vector<uint16_t> pins[2];
+    long base[2] = {0, 0};  // camera sample number of pins[cam][0]
     long index[2] = {-1, -1};
+    uint16_t word[2] = {CAMERA_IDLE, CAMERA_IDLE};
     long now = 0;       // ps
     long cycles = 0;    // sync rising edges
     long vga_cycles = 0;
     std::vector<long> tx_edges;
     int tx_level = 1;
 
-    bool cameras_done() const { return ::cameras_done(index, pins); }
+    bool cameras_done() const {
+        return index[0] >= base[0] + static_cast<long>(pins[0].size()) &&
+               index[1] >= base[1] + static_cast<long>(pins[1].size());
+    }
+
+    // Drop the samples played, then append a pin file to camera ``cam``'s.
+    bool append(int cam, const char* path) {
+        std::vector<uint16_t> more;
+        if (!read_pins(path, more)) return false;
+        const long played = std::min<long>(std::max<long>(index[cam] - base[cam], 0),
+                                           static_cast<long>(pins[cam].size()));
+        pins[cam].erase(pins[cam].begin(), pins[cam].begin() + played);
+        base[cam] += played;
+        pins[cam].insert(pins[cam].end(), more.begin(), more.end());
+        return true;
+    }
 
     // Process the next clock event; returns true if it was a sync rising edge.
     bool step() {
@@ -67,12 +88,14 @@ struct System {
             if (k == VGA && c.level) ++vga_cycles;
             if ((k == LEFT || k == RIGHT) && !c.level) {  // camera falling edge: next byte
                 const int cam = k - LEFT;
-                drive_camera(top, cam, pins[cam], ++index[cam]);
+                ++index[cam];
+                word[cam] = camera_sample(pins[cam], index[cam] - base[cam]);
+                drive_word(top, cam, word[cam]);
             }
         }
         top->clk = clocks[SYNC].level;
-        top->cam_left_clk = clocks[LEFT].level;
-        top->cam_right_clk = clocks[RIGHT].level;
+        top->cam_left_clk = camera_clock_line(clocks[LEFT].level, word[0]);
+        top->cam_right_clk = camera_clock_line(clocks[RIGHT].level, word[1]);
         top->config_clk = clocks[CONFIG].level;
         top->vga_clk = clocks[VGA].level;
         top->eval();
@@ -230,6 +253,11 @@ int main(int argc, char** argv) {
             for (long v : s.tx_edges) std::printf(" %ld", v);
             std::printf("\n");
             s.tx_edges.clear();
+        } else if (cmd == "a") {
+            std::string left, right;
+            in >> left >> right;
+            std::printf(s.append(0, left.c_str()) && s.append(1, right.c_str())
+                            ? "ok\n" : "error cannot read the pin files\n");
         } else if (cmd == "q") {
             break;
         } else {
