@@ -12,6 +12,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+.PHONY: docs
+docs: $(STAMP)
+	$(BIN)/sphinx-build -W --keep-going -q -b html docs build/docs
+
 demo: $(STAMP)
 	$(BIN)/stereogest demo --output demo-out
 
@@ -29,8 +33,8 @@ bench: $(STAMP)
 # Routed timing on an ECP5 (nextpnr): every block, the whole matcher, the whole
 # pipeline with three placer seeds, thesis parameters and with the default rig's
 # calibration and hand tracking (hours on this 2-core machine; figures in
-# hdl/README.md). PR_JOBS placements at a time. The two pipeline runs become the
-# record hdl/timing_pipeline.json and the table in hdl/README.md, which make test
+# docs/design/hardware.md). PR_JOBS placements at a time. The two pipeline runs become the
+# record hdl/timing_pipeline.json and the table in docs/design/hardware.md, which make test
 # checks against the hardware (a failed seed still writes them: the table says it).
 PR_JOBS ?= 2
 timing: $(STAMP)
@@ -44,15 +48,15 @@ timing: $(STAMP)
 		--calibration build/rig_calibration.json --hand-tracking \
 		-o build/timing_pipeline_calibrated.json
 	$(BIN)/python -m hdl.timing_record build/timing_pipeline.json \
-		build/timing_pipeline_calibrated.json -o hdl/timing_pipeline.json --readme hdl/README.md
+		build/timing_pipeline_calibrated.json -o hdl/timing_pipeline.json --readme docs/design/hardware.md
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'
 # discrete recogniser (§9.4), kept for comparison; continuous7.json is for
 # --spotting continuous (gestures one after another); posture.json names the
-# posture of the rendered people's hands (README, "Hand posture").
+# posture of the rendered people's hands (docs/design/posture.md).
 MODEL  ?= sw_hps/models/gestures7.json
-# The continuous model's posture commands (README, "Posture commands"): chosen
+# The continuous model's posture commands (docs/design/posture.md, "Posture commands"): chosen
 # on development seeds by benchmarks/command_postures.py.
 COMMAND_POSTURES := asl1,asl2,asl3,asl4
 COMMAND_SHARE    := 0.5

@@ -1,7 +1,7 @@
 """The whole pipeline's routed timing as the project states it: one record of
 every placement ``make timing`` makes (both configurations, placer seeds 1-3),
 the commit and tools it was measured with, the netlist it describes, and the
-table hdl/README.md shows.
+table docs/design/hardware.md shows.
 
 ``make timing`` writes the record (``hdl/timing_pipeline.json``) from the two
 ``stereogest timing --block pipeline`` reports and puts its table into the
@@ -28,7 +28,7 @@ __all__ = ["CONFIGURATIONS", "TABLE_BEGIN", "TABLE_END", "RECORD", "record", "re
 
 #: The record beside this module, and the README that shows it.
 RECORD = Path(__file__).resolve().parent / "timing_pipeline.json"
-README = Path(__file__).resolve().parent / "README.md"
+README = Path(__file__).resolve().parent.parent / "docs" / "design" / "hardware.md"
 #: Markers around the generated table in the README.
 TABLE_BEGIN = "<!-- pipeline timing table: written by make timing from hdl/timing_pipeline.json -->"
 TABLE_END = "<!-- end of the pipeline timing table -->"

@@ -27,7 +27,7 @@ READ_LATENCY = 2
 NO_INIT_ATTR = "stereogest_no_init"
 #: Default ``scale`` of :class:`FrameBuffer`: half resolution, a quarter of the
 #: block RAM, as the M10K blocks are the whole core's tightest resource (the
-#: figures: soc/README.md, Resources) and a debug view needs no more.
+#: figures: docs/design/soc.md, Resources) and a debug view needs no more.
 VGA_SCALE = 2
 
 
@@ -86,7 +86,7 @@ class FrameBuffer(wiring.Component):
     in one :class:`amaranth.lib.memory.Memory`, written in ``sync`` and read in
     ``vga`` (a true dual-clock block RAM). At the board size, 4 bits: 320 x 240
     x 4 = 307,200 bits at half resolution, 640 x 480 x 4 = 1,228,800 bits at
-    full (their M10K blocks: soc/README.md, Resources).
+    full (their M10K blocks: docs/design/soc.md, Resources).
 
     Parameters
     ----------

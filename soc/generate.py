@@ -304,7 +304,7 @@ SYSTEM_INSTANCE = "soc"
 #: OV5642 digital video port (ns): data, HREF and VSYNC change after PCLK's
 #: falling edge, valid at most ``pclk_to_data_max`` later (OmniVision's DVP
 #: timing table, tPDV <= 5 ns, tPHH/tPHL 0-5 ns); the board top samples them
-#: on the rising edge. Source and caveat in soc/README.md.
+#: on the rising edge. Source and caveat in docs/design/soc.md.
 OV5642_DVP = {"pclk_to_data_min": 0.0, "pclk_to_data_max": 5.0}
 #: ADV7123 video DAC (ns): data and control setup and hold to the rising edge
 #: of its CLOCK input (datasheet, 3.3 V: t6 = 0.2, t7 = 1.5).

@@ -1,5 +1,5 @@
 # amaranth: UnusedElaboratable=no
-"""hdl/timing_record.py: the whole pipeline's routed timing as hdl/README.md
+"""hdl/timing_record.py: the whole pipeline's routed timing as docs/design/hardware.md
 states it. The README's table is the record's; the record describes the
 netlists the hardware builds today (a change to the pipeline fails here until
 ``make timing`` has measured it); the record is made only from complete,
@@ -111,9 +111,9 @@ def test_main_writes_the_record_and_the_readme_or_one_error_line(tmp_path, capsy
 
 def test_readme_shows_the_records_table():
     rec = json.loads(tr.RECORD.read_text())
-    readme = (ROOT / "hdl" / "README.md").read_text()
+    readme = (ROOT / "docs" / "design" / "hardware.md").read_text()
     assert tr.replace_table(readme, tr.render_table(rec)) == readme, \
-        "hdl/README.md's pipeline timing table is not hdl/timing_pipeline.json's: run make timing"
+        "docs/design/hardware.md's pipeline timing table is not hdl/timing_pipeline.json's: run make timing"
 
 
 def test_record_describes_todays_hardware():

@@ -51,9 +51,10 @@ def counted_pixels(mask, *, previous=None, track_gate: int = 0, hand_rows: int =
     Parameters
     ----------
     mask : (H, W) bool, or integer array of 0/1
-    previous : Centroid or (x, y, area) or None
-        The previous frame's centroid; None (the clip's first frame) or
-        ``area == 0`` (no hand) opens the gate to the whole frame.
+    previous : Centroid or tuple or None
+        The previous frame's centroid (or its ``(x, y, area)``); None (the
+        clip's first frame) or ``area == 0`` (no hand) opens the gate to the
+        whole frame.
     track_gate : int in TRACK_GATE_RANGE
         0: no gate. Else only pixels with ``|x - previous.x| <= track_gate`` and
         ``|y - previous.y| <= track_gate`` count.
@@ -99,9 +100,10 @@ def centroid(mask, *, previous=None, track_gate: int = 0, hand_rows: int = 0) ->
 
     Returns
     -------
-    Centroid(x, y, area) of Python ints
-        ``area = M00`` = number of set pixels, ``M10 = sum of x`` and
-        ``M01 = sum of y`` over set pixels (0-based column/row indices);
+    Centroid
+        ``(x, y, area)`` of Python ints: ``area = M00`` = number of set
+        pixels, ``M10 = sum of x`` and ``M01 = sum of y`` over set pixels
+        (0-based column/row indices);
         ``x = M10 // M00`` and ``y = M01 // M00`` (floor, the quotient of the
         hardware's unsigned divider). An empty mask gives ``Centroid(0, 0, 0)``:
         ``area == 0`` tells "no hand". Moments are pointwise, so there is no border

@@ -149,7 +149,7 @@ class PipelineParams:
         set for 640-pixel-wide frames) scaled to ``width``, and the spotting hold
         raised to :data:`DEMO_SPOT_HOLD` frames (the rendered out-and-back
         gestures dwell at their turn long enough to split under 16; measured on
-        the development seeds, see soc/README.md). ``hand_tracking``: also the
+        the development seeds, see docs/design/soc.md). ``hand_tracking``: also the
         centroid's hand tracking, :data:`HAND_TRACKING_640` scaled to ``width``."""
         check_int("width", width, 16, 4096)
         values = dict(spot_threshold=max(1, round(cls.spot_threshold * width / 640)),

@@ -8,7 +8,7 @@ path's start, end and logic levels; LUT4/FF/EBR; CPU and wall seconds). A seed
 nextpnr cannot route is reported as such (``routed`` false, its error line) and
 the other seeds still run. Exit status 1 when a clock misses its constraint or a
 seed is not routed. Small blocks take seconds to a minute; the
-matcher and the pipeline take tens of minutes each (hdl/README.md)."""
+matcher and the pipeline take tens of minutes each (docs/design/hardware.md)."""
 from __future__ import annotations
 
 import dataclasses
