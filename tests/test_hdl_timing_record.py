@@ -113,7 +113,8 @@ def test_readme_shows_the_records_table():
     rec = json.loads(tr.RECORD.read_text())
     readme = (ROOT / "docs" / "design" / "hardware.md").read_text()
     assert tr.replace_table(readme, tr.render_table(rec)) == readme, \
-        "docs/design/hardware.md's pipeline timing table is not hdl/timing_pipeline.json's: run make timing"
+        ("docs/design/hardware.md's pipeline timing table is not "
+         "hdl/timing_pipeline.json's: run make timing")
 
 
 def test_record_describes_todays_hardware():

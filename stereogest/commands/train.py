@@ -165,7 +165,8 @@ def _check_options(args) -> list[int] | None:
         from recognition.gaussian_train import DEFAULT_RESAMPLE
         if args.cv_states is not None:
             raise ValueError("--cv-states applies to --emission discrete (the gaussian "
-                             "defaults were chosen by leave-one-subject-out; docs/design/recognition.md)")
+                             "defaults were chosen by leave-one-subject-out; "
+                             "docs/design/recognition.md)")
         top = (args.resample or DEFAULT_RESAMPLE) - 1
         if args.states is not None and not 1 <= args.states <= min(MAX_STATES, top):
             raise ValueError(f"--states must be in 1..{min(MAX_STATES, top)} for gaussian "
