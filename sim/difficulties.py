@@ -1,4 +1,4 @@
-"""Scene difficulties of the renderer (issue 18): what real footage does to the
+"""Scene difficulties of the renderer: what real footage does to the
 thesis' method and the easy scene never does. Each is off (0 / False) by
 default, so a scene without them is bit for bit the easy one.
 
@@ -113,8 +113,8 @@ def camera_gains(difficulties: Difficulties, frames: int, rng: np.random.Generat
     return gains
 
 
-#: The scenes of ``--scene``: ``easy`` is today's; ``hard`` has every difficulty
-#: but the misalignment (which needs its calibration to be undone), with each
+#: The scenes of ``--scene``: ``easy`` has no difficulty; ``hard`` has every
+#: difficulty but the misalignment (which needs its calibration to be undone), with each
 #: person's skin tone and hand size drawn from the seed (:func:`preset`).
 SCENES = ("easy", "hard")
 HARD = dict(exposure_drift=0.15, flicker=0.03, motion_blur=0.5, forearm=True, clutter=True,

@@ -57,10 +57,33 @@ _LEGEND = [(_GESTURE, "gesture frames (flag set)"), (_REST, "other frames"),
 LEGEND_HEIGHT = 8 + 15 * len(_LEGEND)
 
 
+def place_labels(draw, labels, font, size) -> list:
+    """Where to write each ``(point, text)`` label beside its point so that no
+    two labels overlap and each stays inside ``size``: the first free place of
+    four around the point; a label with none is left out (its point is still
+    drawn). Returns ``[((x, y), text), ...]``."""
+    placed, boxes = [], []
+    width, height = size
+    for (px, py), text in labels:
+        left, top, right, bottom = draw.textbbox((0, 0), text, font=font, stroke_width=2)
+        w, h = right - left, bottom - top
+        for dx, dy in ((5, -h - 5), (5, 5), (-w - 5, -h - 5), (-w - 5, 5)):
+            x, y = px + dx, py + dy
+            box = (x + left, y + top, x + left + w, y + top + h)
+            inside = box[0] >= 0 and box[1] >= 0 and box[2] <= width and box[3] <= height
+            if inside and not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3]
+                                  and b[1] < box[3] for b in boxes):
+                boxes.append(box)
+                placed.append(((x, y), text))
+                break
+    return placed
+
+
 def trajectory_picture(background, smoothed, flag, frac_bits: int = 8) -> np.ndarray:
     """The smoothed centroid track over a grey background: gesture frames red,
     other frames blue, the first gesture point green, every tenth frame
-    numbered; below the picture (:data:`LEGEND_HEIGHT` rows) a legend saying so."""
+    marked and numbered where its number has room (:func:`place_labels`);
+    below the picture (:data:`LEGEND_HEIGHT` rows) a legend saying so."""
     grey = np.asarray(background, dtype=np.uint8)
     img = Image.fromarray(np.stack([grey // 2] * 3, axis=-1))
     draw = ImageDraw.Draw(img)
@@ -76,11 +99,14 @@ def trajectory_picture(background, smoothed, flag, frac_bits: int = 8) -> np.nda
         x, y = pts[n]
         draw.ellipse([x - 6, y - 6, x + 6, y + 6], outline=_START, width=3)
     font = _font(11)
-    for n in range(0, len(pts), 10):
-        if not (pts[n] == 0).all():
-            x, y = pts[n]
-            draw.ellipse([x - 2, y - 2, x + 2, y + 2], fill=_WHITE)
-            draw.text((x + 4, y - 12), str(n), font=font, fill=_WHITE)
+    numbered = [n for n in range(0, len(pts), 10) if not (pts[n] == 0).all()]
+    for n in numbered:
+        x, y = pts[n]
+        draw.ellipse([x - 2, y - 2, x + 2, y + 2], fill=_WHITE)
+    for (x, y), text in place_labels(draw, [(pts[n], str(n)) for n in numbered], font,
+                                     img.size):
+        draw.text((x, y), text, font=font, fill=_WHITE, stroke_width=2,
+                  stroke_fill=(0, 0, 0))
     out = Image.new("RGB", (img.width, img.height + LEGEND_HEIGHT), (24, 24, 24))
     out.paste(img, (0, 0))
     draw = ImageDraw.Draw(out)

@@ -19,11 +19,13 @@ COMMANDS = ("render", "clip", "chessboards", "calibrate", "stereo", "eval_stereo
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Show a default only where it says something (not None/False, not already in the text)."""
+    """Show a default only where it says something (not None/False, not a flag's,
+    not already in the text)."""
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if "default" in text or action.default in (None, False, argparse.SUPPRESS):
+        if "default" in text or action.default in (None, False, argparse.SUPPRESS) \
+                or action.nargs == 0:
             return text
         return super()._get_help_string(action)
 

@@ -43,9 +43,10 @@ def parse_frames(text: str | None, frames: int, motion: tuple[int, int] | None) 
 
 def write_outputs(outdir: Path, clip, trajectory, kept, params, seconds: float,
                   recognised: str | None = None, telegram: str | None = None,
-                  gestures: list | None = None) -> dict:
+                  gestures: list | None = None, clip_path=None) -> dict:
     """trajectory.csv, frame_NNNN_<stage>.png, frame_NNNN_sheet.png (the stages
-    labelled, for people), trajectory.png, summary.json."""
+    labelled, for people), trajectory.png, summary.json (``clip``: the clip's
+    folder, ``clip_path``)."""
     from sim.images import write_png
     from sim.pictures import disparity_picture, mask_picture, stage_sheet, trajectory_picture
 
@@ -78,7 +79,7 @@ def write_outputs(outdir: Path, clip, trajectory, kept, params, seconds: float,
                   trajectory_picture(background, trajectory.smoothed, trajectory.flag,
                                      params.frac_bits), bits=8)
     symbols = [int(s) for s in trajectory.symbol if s >= 0]
-    summary = {"clip": str(clip.path) if getattr(clip, "path", None) else None,
+    summary = {"clip": str(clip_path) if clip_path is not None else None,
                "gesture": clip.gesture, "frames": len(trajectory.flag),
                "gesture_frames": int(trajectory.flag.sum()),
                "symbols": "".join(str(s) for s in symbols),
@@ -339,13 +340,35 @@ def recognise(models, trajectory):
     return gestures[-1]["name"], gestures[-1]["telegram"]
 
 
-def warn_if_empty(trajectory, params, width: int, height: int, quiet: bool = False) -> None:
-    """Say on stderr when the opening found no hand at all, or no gesture was
-    flagged (the results then name no gesture, which is not an error)."""
+def lost_stage(stages, params) -> str:
+    """Which stage lost the hand in frames where the opening found none
+    (``stages``: :class:`sim.model.pipeline.FrameStages` of some of them)."""
+    stages = list(stages)
+    if not any(s.skin.any() for s in stages):
+        return (f"the skin mask is empty: no pixel has Cb in {list(params.skin_cb)} and Cr in "
+                f"{list(params.skin_cr)} (lighting, white balance or no hand in view)")
+    if not any(s.band.any() for s in stages):
+        return (f"the disparity band is empty: nothing lies at the hand's depth "
+                f"({params.band_low} < d < {params.band_high or params.max_disparity - 2}; "
+                f"are the two cameras showing the same picture, or is the hand too far?)")
+    if not any(s.hand.any() for s in stages):
+        return (f"skin and the disparity band never overlap: the skin lies outside "
+                f"{params.band_low} < d < {params.band_high or params.max_disparity - 2} "
+                f"(the hand too far or too near; disparities shrink with the frame size)")
+    return (f"the {params.opening_size}x{params.opening_size} opening erased the hand: it is "
+            f"too small in the frame (a larger frame or a nearer hand)")
+
+
+def warn_if_empty(trajectory, params, width: int, height: int, quiet: bool = False,
+                  stages=None) -> None:
+    """Say on stderr when the opening found no hand at all, naming the stage
+    that lost it where some frames' ``stages`` are known, or when no gesture
+    was flagged (the results then name no gesture, which is not an error)."""
     if not trajectory.area.any():
-        print(f"warning: the opening found no hand in any of {len(trajectory.area)} frames "
-              f"(at {width}x{height} a {params.opening_size}x{params.opening_size} opening "
-              f"can erase a small hand; try a larger frame)", file=sys.stderr)
+        why = lost_stage(stages, params) if stages else \
+            "no stage pictures to tell which stage lost it (--backend model has them)"
+        print(f"warning: no hand found in any of {len(trajectory.area)} frames at "
+              f"{width}x{height}: {why}", file=sys.stderr)
     elif not trajectory.flag.any():
         print(f"warning: no gesture was flagged (the hand never moved Tm = "
               f"{params.spot_threshold} px within {params.spot_window} frames)",

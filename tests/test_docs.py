@@ -75,3 +75,19 @@ def test_front_page_is_short():
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 200
     assert not re.search(r"\b[0-9a-f]{7,40}\b", readme), "a commit hash on the front page"
+
+
+def test_help_texts_tell_no_history_and_no_flag_defaults():
+    """``--help`` of every command: no issue numbers, no "today's" (relative
+    to what?), and a flag never shows a default (``--no-reject`` defaulting to
+    True read as rejection being off)."""
+    import argparse
+
+    from stereogest.cli import build_parser
+    parser = build_parser()
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)][0]
+    for name, sub in subs.choices.items():
+        text = sub.format_help()
+        assert not HISTORY.search(text), (name, HISTORY.search(text).group(0))
+        assert "today" not in text, name
+        assert "(default: True)" not in text and "(default: False)" not in text, name

@@ -226,18 +226,42 @@ def test_demo_runs_a_given_clip(tmp_path, rendered, capsys):
 
 
 def test_pipeline_spotting_options_and_warnings(tmp_path, rendered, capsys):
+    from dataclasses import replace
+
     from sim.clip import save_clip
     path = save_clip(rendered, tmp_path / "small")
     assert main(["pipeline", str(path), "-o", str(tmp_path / "o1"), "--spot-hold", "0"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == "stereogest pipeline: error: --spot-hold must be in [1, 255], got 0"
     assert not (tmp_path / "o1").exists()
-    # at 160x120 the 11x11 opening erases this hand: a warning, not an error
+    # at 160x120 the hand's disparity falls below the band: a warning, not an error
     assert main(["pipeline", str(path), "-o", str(tmp_path / "o2"), "--spot-threshold", "3",
                  "--quiet", "--json"]) == 0
     captured = capsys.readouterr()
-    assert "warning: the opening found no hand in any of 8 frames" in captured.err
+    assert "warning: no hand found in any of 8 frames at 160x120: skin and the disparity " \
+        "band never overlap" in captured.err
     result = json.loads(captured.out.strip().splitlines()[-1])
     assert result["recognised"] is None and result["gesture"] == "stop"
     summary = json.loads((tmp_path / "o2" / "summary.json").read_text())
-    assert summary["params"]["spot_threshold"] == 3
+    assert summary["params"]["spot_threshold"] == 3 and summary["clip"] == str(path)
+    # the same picture for both cameras: skin is found, the band is not
+    same = save_clip(replace(rendered, right=rendered.left), tmp_path / "same")
+    assert main(["pipeline", str(same), "-o", str(tmp_path / "o3"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "the disparity band is empty" in err and "same picture" in err, err
+
+
+def test_the_hint_names_the_stage_that_lost_the_hand():
+    from types import SimpleNamespace
+
+    from sim.model.pipeline import PipelineParams
+    from stereogest.pipeline_outputs import lost_stage
+    none, some = np.zeros((4, 4), bool), np.ones((4, 4), bool)
+    params = PipelineParams()
+
+    def stages(skin, band, hand):
+        return [SimpleNamespace(skin=skin, band=band, hand=hand)]
+    assert lost_stage(stages(none, some, none), params).startswith("the skin mask is empty")
+    assert lost_stage(stages(some, none, none), params).startswith("the disparity band is empty")
+    assert lost_stage(stages(some, some, none), params).startswith("skin and the disparity band")
+    assert lost_stage(stages(some, some, some), params).startswith("the 11x11 opening erased")

@@ -118,3 +118,25 @@ def test_stage_sheet_labels_every_panel_and_marks_the_centroid():
     assert not (empty == RED).all(axis=-1).any() and not (empty == GREEN).all(axis=-1).any()
     # title and captions are drawn (white text on the dark background)
     assert (flagged[:30] > 200).all(axis=-1).any()
+
+
+def test_trajectory_labels_never_overlap():
+    """A hand held still puts every tenth frame on one spot: at most four
+    numbers fit around it, the others are left out; spread points are all
+    numbered; no two numbers overlap and none leaves the picture."""
+    from PIL import Image, ImageDraw
+
+    from sim.pictures import _font, place_labels
+    draw = ImageDraw.Draw(Image.new("RGB", (160, 120)))
+    font = _font(11)
+    still = place_labels(draw, [((80, 60), str(n)) for n in range(0, 100, 10)], font, (160, 120))
+    assert 1 <= len(still) <= 4
+    spread = place_labels(draw, [((20 + 40 * k, 60), str(10 * k)) for k in range(4)], font,
+                          (160, 120))
+    assert [text for _, text in spread] == ["0", "10", "20", "30"]
+    for labels in (still, spread):
+        boxes = [draw.textbbox(xy, text, font=font, stroke_width=2) for xy, text in labels]
+        for i, a in enumerate(boxes):
+            assert 0 <= a[0] and 0 <= a[1] and a[2] <= 160 and a[3] <= 120
+            for b in boxes[i + 1:]:
+                assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])

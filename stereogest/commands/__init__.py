@@ -87,7 +87,7 @@ def add_scene_options(parser) -> None:
     hard = parser.add_argument_group(
         "scene difficulties (sim/difficulties.py); each option overrides the --scene's value")
     hard.add_argument("--scene", choices=SCENES, default="easy",
-                      help="easy: today's scene; hard: every difficulty but --misaligned, "
+                      help="easy: no difficulty; hard: every difficulty but --misaligned, "
                            "the person's skin tone and hand size drawn from the seed")
     for name, text in (("exposure_drift", "each camera's gain wanders by up to this "
                                           "fraction over the clip"),

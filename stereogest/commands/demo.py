@@ -244,7 +244,8 @@ def _demo(args, clip, params, models, say, out, rectification=None) -> int:
         for old in pictures.glob(pattern):
             old.unlink()
     summary = write_outputs(pictures, clip, trajectory, kept, params,
-                            time.perf_counter() - start)
+                            time.perf_counter() - start,
+                            clip_path=args.clip if args.clip is not None else clip_dir)
     flagged = trajectory.flag.nonzero()[0]
     span = f"{flagged[0]}-{flagged[-1]}" if flagged.size else "none"
     truth = (f" (truth: motion {clip.motion_frames[0]}-{clip.motion_frames[1]})"

@@ -9,7 +9,7 @@ The file is a trajectory .npz (points, offsets, label = gesture name, subject =
 person) plus the ground truth: motion (first and last motion frame of each
 trajectory), amplitude, dropped, fps and image_size.
 
-With ``--join DATA.npz`` it writes continuous streams instead (issue 28): each
+With ``--join DATA.npz`` it writes continuous streams instead: each
 person's gestures of a trajectory dataset (the `$1` logs, pendigits, a corpus
 written by this command) in a random order, ``--per-stream`` to a stream,
 joined by a pause (``--pause MIN-MAX`` steps, the hand still) and a

@@ -109,13 +109,14 @@ def _run(args, clip, params, models, chosen, outdir, rectification=None) -> int:
                                     progress=progress_printer(args.quiet), threads=args.threads,
                                     rectification=rectification)
     seconds = time.perf_counter() - start
-    warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet)
+    warn_if_empty(trajectory, params, clip.width, clip.height, args.quiet,
+                  stages=kept.values())
     results = spot(models, posture_model, trajectory, clip.width, args.spotting)
     gestures = add_postures(recognised_gestures(results), frame_postures(posture_model, trajectory))
     truth = sequence_score(results, clip.sequence) if clip.sequence is not None else None
     recognised, telegram = (gestures[-1]["name"], gestures[-1]["telegram"]) if gestures \
         else (None, None)
-    summary = write_outputs(outdir, clip, trajectory, kept, params, seconds,
+    summary = write_outputs(outdir, clip, trajectory, kept, params, seconds, clip_path=args.clip,
                             recognised=recognised, telegram=telegram, gestures=gestures)
     print(f"{summary['frames']} frames in {seconds:.1f} s, {summary['gesture_frames']} flagged "
           f"as gesture; symbols: {summary['symbols'] or '(none)'}")
