@@ -40,12 +40,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _version() -> str:
-    """The installed distribution's version (pyproject.toml is its one source)."""
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("stereogest")
-    except PackageNotFoundError:
-        return "(not installed)"
+    """The project's version (one definition: :data:`sw_hps.__version__`)."""
+    from sw_hps import __version__
+    return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:

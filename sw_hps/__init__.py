@@ -13,6 +13,10 @@ imports anything that needs numpy (``python -m sw_hps.bundle`` runs without it).
 """
 import sys
 
+#: The project's version: ``stereogest --version``, ``python -m sw_hps --version``,
+#: the bundle and CHANGELOG.md's newest section say it (pyproject.toml reads it here).
+__version__ = "0.2.0"
+
 #: Oldest Python the board application supports (``from __future__ import
 #: annotations``, dataclasses).
 REQUIRED_PYTHON = (3, 7)

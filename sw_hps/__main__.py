@@ -78,7 +78,7 @@ error (SIGBUS/SIGSEGV; after ``--fault-retries``) or was killed by another signa
 """
 from __future__ import annotations
 
-from . import check_floor
+from . import __version__, check_floor
 
 check_floor()   # one line instead of an ImportError from the modules below that need numpy
 
@@ -97,7 +97,7 @@ from .bus import BusError, DevMemBus, SimBus, UioBus
 from .busfault import describe_bus
 from .guard import MAX_FAULT_RETRIES, RETRY_INITIAL, RETRY_MAX, supervise
 from .check import DEV_MEM, identity_problem, needed_span, preflight_bridge, run_check
-from soc.hps_interface import FIFO_BASE, UART_BASE, UART_SPAN
+from soc.hps_interface import CORE_REVISION, FIFO_BASE, UART_BASE, UART_SPAN
 
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
 from .hmm import load_models
@@ -144,6 +144,9 @@ def _int(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Gesture recogniser on the DE1-SoC's ARM: reads "
                      "the centroid FIFO, classifies with HMMs, commands the NXT robot.")
+    parser.add_argument("--version", action="version",
+                        version=f"%(prog)s {__version__} (register interface revision "
+                                f"{CORE_REVISION})")
     parser.add_argument("--check", action="store_true",
                         help="check the FPGA, the lightweight bridge and the core, print what "
                         "is found and exit (0: a stereogest core answers); --model and "

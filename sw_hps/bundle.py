@@ -37,7 +37,7 @@ import tarfile
 import time
 from pathlib import Path
 
-from . import INSTALL_HINT, REQUIRED_NUMPY, REQUIRED_PYTHON, numpy_version
+from . import INSTALL_HINT, REQUIRED_NUMPY, REQUIRED_PYTHON, __version__, numpy_version
 from .model_format import read_structure
 
 PACKAGE = Path(__file__).resolve().parent
@@ -110,8 +110,8 @@ def readme(names, root=ROOT) -> str:
     files.append(("README.txt", "this file"))
     first = "BRINGUP.md" if "BRINGUP.md" in names else "the project's docs/bring-up.md"
     lines = [
-        "stereogest board application",
-        "============================",
+        f"stereogest board application {__version__}",
+        "=" * len(f"stereogest board application {__version__}"),
         "",
         f"Needs Python >= {_dotted(REQUIRED_PYTHON)} and numpy >= {_dotted(REQUIRED_NUMPY)} "
         f"on the board ({INSTALL_HINT}).",

@@ -6,6 +6,13 @@ build lock).
 The files with the longest runs are collected first, so that the workers take
 them at the start and the short files fill the end (a long file started last
 would leave the other worker idle).
+
+Markers (docs/guides/ci.md gives each subset's time):
+
+* ``simulation``: the hardware under simulation or synthesis (``test_hdl_*``,
+  ``test_soc_*``, ``test_verif.py``, the cocotb benches): ``pytest -m simulation``;
+* ``quick``: the rest but the files in :data:`NOT_QUICK` (benchmarks, soaks,
+  the live page, the command line's end-to-end runs): ``pytest -m quick``.
 """
 from __future__ import annotations
 
@@ -24,6 +31,32 @@ SLOW_FILES = (
 )
 
 
+#: Files outside the simulations that take minutes: not in ``-m quick``.
+NOT_QUICK = (
+    "test_benchmarks.py", "test_live.py", "test_cli.py", "test_cli_train.py",
+    "test_bad_input.py", "test_footage.py", "test_shipped_models.py",
+)
+
+
+def is_simulation(name: str) -> bool:
+    """Whether a test file runs the hardware (simulation, synthesis, place and route)."""
+    return name.startswith(("test_hdl_", "test_soc_", "test_verif")) or "cocotb" in name
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "simulation: the hardware under simulation or "
+                                       "synthesis (tests/conftest.py)")
+    config.addinivalue_line("markers", "quick: the tests outside the simulations that take "
+                                       "seconds (tests/conftest.py)")
+
+
 def pytest_collection_modifyitems(config, items):
+    import pytest
+    for item in items:
+        name = item.path.name
+        if is_simulation(name) or "cocotb" in str(item.path.parent):
+            item.add_marker(pytest.mark.simulation)
+        elif name not in NOT_QUICK:
+            item.add_marker(pytest.mark.quick)
     rank = {name: i for i, name in enumerate(SLOW_FILES)}
     items.sort(key=lambda item: rank.get(item.path.name, len(SLOW_FILES)))

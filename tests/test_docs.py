@@ -91,3 +91,59 @@ def test_help_texts_tell_no_history_and_no_flag_defaults():
         assert not HISTORY.search(text), (name, HISTORY.search(text).group(0))
         assert "today" not in text, name
         assert "(default: True)" not in text and "(default: False)" not in text, name
+
+
+WORKFLOW = ROOT / ".github" / "workflows" / "ci.yml"
+
+
+def _tool(name: str) -> str:
+    import shutil
+    path = Path(sys.executable).parent / name
+    found = str(path) if path.exists() else shutil.which(name)
+    if found is None:
+        pytest.skip(f"{name} is not installed (pip install '.[test]')")
+    return found
+
+
+@pytest.mark.parametrize("linter", ["zizmor", "check-jsonschema"])
+def test_ci_workflow_passes_its_linters(linter):
+    """The CI recipe of docs/guides/ci.md: valid for GitHub Actions (its schema)
+    and clean for zizmor (pinned actions, no credentials kept, least
+    permissions), offline."""
+    args = {"zizmor": ["--offline", str(WORKFLOW)],
+            "check-jsonschema": ["--builtin-schema", "vendor.github-workflows", str(WORKFLOW)]}
+    proc = subprocess.run([_tool(linter), *args[linter]], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_ci_workflow_runs_the_readmes_commands():
+    text = WORKFLOW.read_text()
+    readme = (ROOT / "README.md").read_text()
+    for command in ("make test", "make demo"):
+        assert f"run: {command}" in text and command in readme
+    assert "STEREOGEST_BUILD_DIR" in text and "actions/cache@" in text
+    assert "ci.yml" in (DOCS / "guides" / "ci.md").read_text()
+
+
+def test_one_version_everywhere():
+    """CHANGELOG.md's newest section, ``stereogest --version``, ``python -m
+    sw_hps --version``, the bundle's README.txt and the installed metadata say
+    one version; the section names the register interface the FIFO's Version
+    register reports."""
+    from importlib.metadata import version
+
+    import sw_hps
+    from soc.hps_interface import CORE_REVISION
+    from stereogest.cli import _version
+    from sw_hps.bundle import readme
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    newest = re.search(r"^## (\d+\.\d+\.\d+) \((\d{4}-\d\d-\d\d)\), register interface "
+                       r"revision (\d+)$", changelog, re.M)
+    assert newest, "CHANGELOG.md's first section must be '## X.Y.Z (date), register ...'"
+    assert newest.group(1) == sw_hps.__version__ == _version() == version("stereogest")
+    assert int(newest.group(3)) == CORE_REVISION
+    assert readme([]).startswith(f"stereogest board application {sw_hps.__version__}\n")
+    for prog in (["-m", "sw_hps"], ["-m", "stereogest"]):
+        out = subprocess.run([sys.executable, *prog, "--version"], capture_output=True,
+                             text=True, cwd=ROOT).stdout
+        assert sw_hps.__version__ in out, (prog, out)
