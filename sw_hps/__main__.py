@@ -97,9 +97,10 @@ from .bus import BusError, DevMemBus, SimBus, UioBus
 from .busfault import describe_bus
 from .guard import MAX_FAULT_RETRIES, RETRY_INITIAL, RETRY_MAX, supervise
 from .check import DEV_MEM, identity_problem, needed_span, preflight_bridge, run_check
-from soc.hps_interface import CORE_REVISION, FIFO_BASE, UART_BASE, UART_SPAN
+from soc.hps_interface import CORE_REVISION, FIFO_BASE, GESTURE_NAMES, UART_BASE, UART_SPAN
 
 from .fifo import LIGHTWEIGHT_BRIDGE_BASE, REGISTER_SPAN, FifoPeripheral
+from .class_commands import unmapped
 from .hmm import load_models
 from .privileges import PrivilegeError, drop_privileges, look_up_user
 from .robot import (ACK_TIMEOUT_RANGE, DEFAULT_ACK_TIMEOUT, RN42_STATUS_PREFIX, NullLink,
@@ -347,6 +348,12 @@ def _load_models(args):
     or None (at start, and by the guard on SIGHUP): ``(models, posture)``;
     ``UsageError`` / ``ValueError`` with a one-line message."""
     models = check_models(load_models(args.model))
+    missing = unmapped(models.commands, models.class_names)
+    if missing:
+        raise UsageError(f"argument --model: {args.model}: {', '.join(map(repr, missing))} "
+                         f"map{'s' if len(missing) == 1 else ''} to no robot command (the "
+                         f"robot's: {', '.join(GESTURE_NAMES)}); train it with --commands "
+                         f"CLASS=COMMAND,...")
     if args.spotting == "continuous":
         try:
             check_streaming_models(models)

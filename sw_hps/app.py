@@ -947,14 +947,15 @@ class GestureApp:
     def _send(self) -> None:  # S4
         result = self._pending
         self.state = State.CLEAR
-        if result.class_name not in GESTURE_NAMES:
-            log.warning("S4: class %r is not one of the robot's gestures %s; nothing sent",
+        command = self.models.command_of(result.class_name)
+        if command is None:
+            log.warning("S4: class %r maps to none of the robot's commands %s; nothing sent",
                         result.class_name, list(GESTURE_NAMES))
             return
-        delivery = deliver_gesture(self.link, result.class_name, result.power)  # never raises
+        delivery = deliver_gesture(self.link, command, result.power)  # never raises
         log.log(logging.WARNING if delivery.status == FAILED else logging.INFO,
-                "S4: telegram %s for %r %s", hex_bytes(delivery.telegram), result.class_name,
-                delivery.describe())
+                "S4: telegram %s for %r%s %s", hex_bytes(delivery.telegram), result.class_name,
+                "" if command == result.class_name else f" ({command})", delivery.describe())
         self._pending = dataclasses.replace(result, telegram=delivery.telegram,
                                             sent=delivery.written, delivery=delivery.status)
 

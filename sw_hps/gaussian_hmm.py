@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .class_commands import check_commands, command_of
 from .hmm import MODEL_FORMAT, MODEL_VERSION, check_thresholds, decide
 from .posture_commands import check_posture_commands
 from .stroke import FEATURE_NAMES, RESAMPLE_RANGE, stroke_features
@@ -161,6 +162,8 @@ class GaussianGestureModels:
     meta: dict = field(default_factory=dict, compare=False)
     #: The posture commands (:mod:`sw_hps.posture_commands`; None: none).
     postures: dict | None = None
+    #: Robot command per class (:mod:`sw_hps.class_commands`; None: by name).
+    commands: dict | None = None
 
     emission = "gaussian"
 
@@ -196,6 +199,7 @@ class GaussianGestureModels:
         object.__setattr__(self, "weights", weights)
         object.__setattr__(self, "thresholds", check_thresholds(self.thresholds, len(names)))
         object.__setattr__(self, "postures", check_posture_commands(self.postures))
+        object.__setattr__(self, "commands", check_commands(self.commands, names))
         # All components stacked once, for one vectorised forward pass.
         stay = np.stack([c.stay for c in flat])
         with np.errstate(divide="ignore"):
@@ -243,6 +247,10 @@ class GaussianGestureModels:
         (``steps`` is always :attr:`steps`; accepted for the discrete API)."""
         return decide(scores, self.steps, self.thresholds, self.class_names)
 
+    def command_of(self, class_name: str) -> str | None:
+        """The robot command a class sends (None: none)."""
+        return command_of(self.commands, class_name)
+
     def with_thresholds(self, thresholds) -> "GaussianGestureModels":
         return replace(self, thresholds=thresholds, meta=dict(self.meta))
 
@@ -256,7 +264,7 @@ class GaussianGestureModels:
                 {"statistic": "mean log-likelihood per feature vector",
                  "thresholds": list(self.thresholds)},
                 "spotting": None, "postures": self.postures,
-                "meta": self.meta}
+                "commands": self.commands, "meta": self.meta}
 
     @classmethod
     def from_dict(cls, data: dict) -> "GaussianGestureModels":
@@ -294,4 +302,5 @@ class GaussianGestureModels:
         return cls(tuple(names), tuple(groups), feats.get("resample"), feats.get("weights"),
                    None if rejection is None else rejection["thresholds"],
                    dict(data.get("meta") or {}),
-                   data.get("postures") if data.get("version", 0) >= 4 else None)
+                   data.get("postures") if data.get("version", 0) >= 4 else None,
+                   data.get("commands") if data.get("version", 0) >= 5 else None)

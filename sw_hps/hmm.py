@@ -6,9 +6,9 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this
 project. Training lives in :mod:`recognition`; both read and write the same
 JSON model file through :func:`load_models` / :func:`save_models`.
 
-Model file (JSON), version 4::
+Model file (JSON), version 5::
 
-    {"format": "stereogest-hmm", "version": 4,
+    {"format": "stereogest-hmm", "version": 5,
      "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
@@ -19,6 +19,8 @@ Model file (JSON), version 4::
                          "stop_frames": n, "release_frames": n, "neutral": [...],
                          "power": {...}},
                                          # sw_hps.posture_commands; optional
+     "commands": null | {"class": "robot command", ...},
+                                         # sw_hps.class_commands; optional
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,
@@ -28,7 +30,8 @@ Model file (JSON), version 4::
      "models": [{"components": [{"stay": [...], "mean": [[...]], "var": [[...]]}, ...]}, ...]}
 
 Version 1 files (discrete, no ``emission`` and no ``rejection``), version 2
-files (no ``spotting``) and version 3 files (no ``postures``) still load. ``spotting`` holds the options of the
+files (no ``spotting``), version 3 files (no ``postures``) and version 4
+files (no ``commands``) still load. ``spotting`` holds the options of the
 continuous recogniser (:mod:`sw_hps.continuous`, discrete models only; null:
 its defaults).
 Discrete: one model per class; each has N states (N may differ between
@@ -49,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from .continuous import check_spotting
+from .class_commands import check_commands, command_of
 from .posture_commands import check_posture_commands
 # The file's identity lives in a standard-library module: the bundle checks it
 # on a machine without numpy.
@@ -227,6 +231,8 @@ class GestureModels:
     spotting: dict | None = None
     #: The posture commands (:mod:`sw_hps.posture_commands`; None: none).
     postures: dict | None = None
+    #: Robot command per class (:mod:`sw_hps.class_commands`; None: by name).
+    commands: dict | None = None
 
     emission = "discrete"
 
@@ -242,7 +248,12 @@ class GestureModels:
         if self.spotting is not None:
             object.__setattr__(self, "spotting", check_spotting(self.spotting))
         object.__setattr__(self, "postures", check_posture_commands(self.postures))
+        object.__setattr__(self, "commands", check_commands(self.commands, names))
         ForwardStream(self.models)  # checks the symbol counts agree
+
+    def command_of(self, class_name: str) -> str | None:
+        """The robot command a class sends (None: none)."""
+        return command_of(self.commands, class_name)
 
     @property
     def num_symbols(self) -> int:
@@ -277,7 +288,7 @@ class GestureModels:
                 {"statistic": "mean log-likelihood per symbol",
                  "thresholds": list(self.thresholds)},
                 "spotting": self.spotting, "postures": self.postures,
-                "meta": self.meta}
+                "commands": self.commands, "meta": self.meta}
 
     @classmethod
     def from_dict(cls, data) -> "GestureModels":
@@ -311,7 +322,8 @@ class GestureModels:
             raise ValueError("rejection must be null or an object with thresholds")
         result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
                      None if rejection is None else rejection["thresholds"], spotting,
-                     data.get("postures") if version >= 4 else None)
+                     data.get("postures") if version >= 4 else None,
+                     data.get("commands") if version >= 5 else None)
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")

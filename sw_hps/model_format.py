@@ -15,11 +15,11 @@ __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "chec
            "check_structure", "read_json", "read_structure"]
 
 MODEL_FORMAT = "stereogest-hmm"
-#: Version written; 1 (discrete, no rejection), 2 (no spotting) and 3 (no
-#: postures) are still read.
-MODEL_VERSION = 4
+#: Version written; 1 (discrete, no rejection), 2 (no spotting), 3 (no
+#: postures) and 4 (no commands) are still read.
+MODEL_VERSION = 5
 #: Versions read.
-MODEL_VERSIONS = (1, 2, 3, 4)
+MODEL_VERSIONS = (1, 2, 3, 4, 5)
 #: Emission models a model file may hold.
 EMISSIONS = ("discrete", "gaussian")
 

@@ -70,7 +70,7 @@ from .fifo import FRAC_BITS, FRAME_WIDTH
 from .orientation import DistanceSymbols
 from .posture_commands import PostureCommands, postures_for_frame
 from .robot import FAILED, deliver_gesture
-from .telegram import GESTURE_NAMES, hex_bytes
+from .telegram import hex_bytes
 
 __all__ = ["StreamingApp", "StreamSpotter", "SpottedGesture", "Command",
            "check_streaming_models"]
@@ -495,14 +495,15 @@ class StreamingApp:
 
     def _send(self, command: Command) -> None:
         name = command.name
+        robot = self.models.command_of(name) if not command.by_posture else name
         data, sent, delivery = None, False, None
-        if name in GESTURE_NAMES:
-            outcome = deliver_gesture(self.link, name, command.power)      # never raises
+        if robot is not None:
+            outcome = deliver_gesture(self.link, robot, command.power)     # never raises
             data, sent, delivery = outcome.telegram, outcome.written, outcome.status
             if outcome.status == FAILED:
                 log.warning("telegram %s for %r %s", hex_bytes(data), name, outcome.describe())
         else:
-            log.warning("class %r is not one of the robot's gestures; nothing sent", name)
+            log.warning("class %r maps to none of the robot's commands; nothing sent", name)
         if command.posture_share is not None or command.by_posture:
             posture, share = command.posture, command.posture_share
         elif self.posture is not None:

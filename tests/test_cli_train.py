@@ -136,9 +136,10 @@ def test_train_leave_one_subject_out_with_report_prefix(tmp_path, capsys, datase
     model = tmp_path / "model.json"
     status, out, err = run(capsys, "train", dataset, "-o", model, "--cv-states", "2",
                            "--groups", "subject", "--jobs", "1", "--report", tmp_path / "logo",
-                           "--resample", "32", *FAST, "--quiet")
+                           "--resample", "32", *FAST, "--quiet",
+                           "--commands", "up=forward,down-left=back")
     assert status == 0, err
-    assert err == ""
+    assert err == ""            # --quiet, and every class mapped to a robot command
     report = json.loads((tmp_path / "logo.json").read_text())
     assert report["scheme"] == "leave-one-group-out" and report["groups"] == [0, 1, 2]
     assert load_models(model).meta["cv"]["groups"] == "subject"
@@ -206,6 +207,9 @@ def test_train_gaussian_camera_front_end(tmp_path, capsys):
     (["--tol", "-1"], ["--tol"]),
     (["--max-iter", "0"], ["--max-iter"]),
     (["--resample", "1"], ["--resample"]),
+    (["--commands", "up=fly"], ["--commands", "'up' maps to 'fly'", "rotate-right"]),
+    (["--commands", "zigzag=stop"], ["--commands", "'zigzag' is not a class", "down-left"]),
+    (["--commands", "up"], ["--commands", "'up' is not CLASS=COMMAND"]),
 ])
 def test_train_errors_name_the_option(tmp_path, capsys, dataset, argv, words):
     model = tmp_path / "model.json"
@@ -411,3 +415,20 @@ def test_train_chooses_the_margin_with_reject_margin_auto(tmp_path, capsys, data
     assert rejection["margin"] in MARGIN_GRID and 0 <= rejection["worst_group_refused"] <= 1
     shift = np.array(load_models(fixed).thresholds) - np.array(load_models(auto).thresholds)
     assert np.allclose(shift, rejection["margin"])
+
+
+def test_train_maps_classes_to_robot_commands(tmp_path, capsys, dataset):
+    """Classes named otherwise than the robot's commands: train warns, and
+    --commands maps them into the model file, where the board reads them."""
+    plain, mapped = tmp_path / "plain.json", tmp_path / "mapped.json"
+    status, _, err = run(capsys, "train", dataset, "-o", plain, *GAUSSIAN, "--quiet")
+    assert status == 0
+    assert "warning: 'down-left', 'up' map to no robot command" in err
+    assert load_models(plain).commands is None
+    status, _, err = run(capsys, "train", dataset, "-o", mapped, *GAUSSIAN, "--quiet",
+                         "--commands", "up=forward, down-left=back")
+    assert status == 0 and "warning" not in err, err
+    models = load_models(mapped)
+    assert models.commands == {"up": "forward", "down-left": "back"}
+    assert [models.command_of(n) for n in models.class_names] == ["back", "right", "forward"]
+    assert json.loads(mapped.read_text())["version"] == 5

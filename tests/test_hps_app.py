@@ -715,3 +715,28 @@ def test_thesis_mode_names_the_posture_held_over_each_gesture():
     # without a tracker nothing changes and no posture is named
     plain = run_on_trajectory(MODELS, x1, y1, f1).results
     assert [(r.class_name, r.posture) for r in plain] == [("back", None)]
+
+
+def test_cli_sends_the_command_a_class_maps_to_and_refuses_an_unmapped_class(
+        tmp_path, trajectory_file, capsys):
+    """A model whose classes are named otherwise (a user's own gestures): with
+    ``commands`` each sends its robot command's telegram; a class that maps to
+    none is refused at start, in one line."""
+    import dataclasses
+    names = tuple("spin" if n == "rotate-right" else n for n in MODELS.class_names)
+    renamed = dataclasses.replace(MODELS, class_names=names, meta={})
+    bad = tmp_path / "unmapped.json"
+    save_models(renamed, bad)
+    assert main(["--model", str(bad), "--bus", "sim", "--robot", "none",
+                 "--sim-trajectory", str(trajectory_file)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'spin' maps to no robot command" in err[0] and \
+        "--commands" in err[0], err
+    good = tmp_path / "mapped.json"
+    save_models(dataclasses.replace(renamed, commands={"spin": "rotate-right"}, meta={}), good)
+    assert main(["--model", str(good), "--bus", "sim", "--robot", "uart",
+                 "--sim-trajectory", str(trajectory_file), "--poll-ms", "0.01",
+                 "--log-level", "warning"]) == 0
+    gestures = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["gestures"]
+    assert [g["class_name"] for g in gestures] == ["spin", "stop"]
+    assert gestures[0]["telegram"] == hex_bytes(telegram("rotate-right"))

@@ -119,6 +119,11 @@ def add_arguments(p):
     p.add_argument("--step", type=int, default=None, metavar="PX",
                    help="--continuous: pixels of travel per symbol at 640 wide, 1..640 "
                         f"(default {SPOTTING_DEFAULTS['step']})")
+    p.add_argument("--commands", metavar="CLASS=COMMAND,...", default=None,
+                   help="the robot command each class sends (one of forward, back, right, "
+                        "left, rotate-right, rotate-left, stop), for classes named otherwise; "
+                        "a class that maps to none is warned about here and refused by the "
+                        "board application")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_json_switch(p, always=True)
 
@@ -280,7 +285,6 @@ def run(args) -> int:
     from recognition.datasets import load_trajectories
     from recognition.features import sequences
     from recognition.hmm_train import train_models
-    from sw_hps.hmm import save_models
 
     cv_states = _check_options(args)
     say = (lambda text: None) if args.quiet else \
@@ -293,6 +297,12 @@ def run(args) -> int:
     if len(data.class_names) < 2:
         raise ValueError(f"{data_path}: holds one class ({', '.join(data.class_names)}); a "
                          f"recogniser needs at least 2")
+    if args.commands is not None:
+        from sw_hps.class_commands import check_commands, parse_commands
+        try:
+            args.commands = check_commands(parse_commands(args.commands), data.class_names)
+        except ValueError as exc:
+            raise ValueError(f"--commands: {str(exc).removeprefix('--commands: ')}") from None
     if args.emission == "gaussian":
         return _run_gaussian(args, data, data_path, say, start)
     if args.continuous:
@@ -366,7 +376,7 @@ def run(args) -> int:
         models.meta["rejection"] = calibration
         models = models.with_thresholds(thresholds)
         summary["rejection"] = calibration
-    save_models(models, args.output)
+    models = _save(models, args)
     training = models.meta["training"]
     summary.update(states=states,
                    iterations={k: v["iterations"] for k, v in training.items()},
@@ -377,9 +387,27 @@ def run(args) -> int:
     return 0
 
 
+def _save(models, args):
+    """Write the model file with ``--commands``; warn (stderr) about classes that
+    send no robot command, which the board application refuses."""
+    from dataclasses import replace
+
+    from sw_hps.class_commands import unmapped
+    from sw_hps.hmm import save_models
+    from sw_hps.telegram import GESTURE_NAMES
+    if args.commands:
+        models = replace(models, commands=args.commands, meta=dict(models.meta))
+    missing = unmapped(models.commands, models.class_names)
+    if missing:
+        print(f"warning: {', '.join(map(repr, missing))} map{'s' if len(missing) == 1 else ''} "
+              f"to no robot command ({', '.join(GESTURE_NAMES)}): the board application "
+              f"refuses this model until --commands maps them", file=sys.stderr)
+    save_models(models, args.output)
+    return models
+
+
 def _run_gaussian(args, data, data_path, say, start) -> int:
     from recognition.recogniser import Recogniser
-    from sw_hps.hmm import save_models
 
     recogniser = Recogniser(emission="gaussian", resample=args.resample, states=args.states,
                             components=args.components, reject=args.reject,
@@ -400,7 +428,7 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
         f"{len(samples)} trajectories")
     models = recogniser.fit(samples, data.label, data.class_names, groups=data.subject,
                             meta=meta, progress=say)
-    save_models(models, args.output)
+    models = _save(models, args)
     summary = {"output": str(args.output), "classes": list(data.class_names),
                "sequences": len(samples), "emission": "gaussian",
                "states": recogniser.num_states,
@@ -415,7 +443,6 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
 def _run_continuous(args, data, data_path, say, start) -> int:
     from recognition.continuous import train_continuous
     from sw_hps.continuous import SPOTTING_DEFAULTS
-    from sw_hps.hmm import save_models
     if data.subject is None or len(set(data.subject.tolist())) < 2:
         raise ValueError(f"{data_path}: --continuous calibrates on held-out subjects: the "
                          f"dataset needs a subject (or writer) key with at least 2 subjects")
@@ -427,7 +454,7 @@ def _run_continuous(args, data, data_path, say, start) -> int:
         data, states=args.states, step=step,
         emission_floor=args.emission_floor or 1e-3, seed=args.seed,
         meta={"dataset": str(data_path), "states": args.states})
-    save_models(models, args.output)
+    models = _save(models, args)
     say(f"wrote {args.output}")
     print(json.dumps({"output": str(args.output), "classes": list(data.class_names),
                       "states": args.states, "spotting": models.spotting,
