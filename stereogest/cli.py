@@ -13,7 +13,8 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order a user meets them.
-COMMANDS = ("render", "clip", "chessboards", "calibrate", "stereo", "eval_stereo", "pipeline", "demo", "live", "gestures", "train", "classify",
+COMMANDS = ("render", "clip", "chessboards", "calibrate", "stereo", "eval_stereo", "pipeline",
+            "demo", "live", "gestures", "dataset", "train", "classify",
             "postures", "train_posture", "classify_posture", "posture_commands",
             "resources", "timing", "generate")
 

@@ -348,3 +348,74 @@ def test_commands_report_bad_integer_labels_in_one_line(tmp_path, capsys, change
     status, out, err = run(capsys, "classify", model, data)
     assert status == 2 and out == ""
     assert_one_line_error(err, "classify", "bad.npz", *words)
+
+
+# ---- stereogest dataset: one's own gestures -------------------------------------------
+
+def _csv(path, points):
+    path.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in points))
+    return path
+
+
+def test_dataset_command_from_csv_files_and_a_manifest(tmp_path, capsys):
+    from tests.cli_helpers import run
+    a = _csv(tmp_path / "a.csv", [(1, 2), (3, 4), (5, 6)])
+    b = _csv(tmp_path / "b.csv", [(10, 10), (20, 30)])
+    (tmp_path / "more").mkdir()
+    c = _csv(tmp_path / "more" / "c.csv", [(0, 0), (1, 1), (2, 2), (3, 3)])
+    manifest = tmp_path / "more" / "list.csv"
+    manifest.write_text("path,label,subject\nc.csv,zigzag,7\n../b.csv,circle,\n")
+    out = tmp_path / "mine.npz"
+    status, stdout, err = run(capsys, "dataset", a, manifest, "-o", out, "--label", "circle",
+                              "--subject", "3", "--json")
+    assert status == 0, err
+    data = load_trajectories(out)
+    assert data.label.tolist() == ["circle", "zigzag", "circle"]
+    assert data.subject.tolist() == [3, 7, 3]
+    assert np.allclose(data.trajectory(1), [(0, 0), (1, 1), (2, 2), (3, 3)])
+    report = json.loads(stdout.strip().splitlines()[-1])
+    assert report["classes"] == {"circle": 2, "zigzag": 1} and report["points"] == 9
+
+
+def test_dataset_command_runs_clips_through_the_pipeline(tmp_path, capsys):
+    from sim.clip import save_clip
+    from sim.model.pipeline import PipelineParams, run_clip
+    from sim.render import render_clip
+    from tests.cli_helpers import run
+    clip = render_clip("right", 3, 320, 240, n_pre_rest=1, n_motion=4, n_post_rest=0)
+    folder = save_clip(clip, tmp_path / "right-3")
+    out = tmp_path / "mine.npz"
+    status, _, err = run(capsys, "dataset", folder, "-o", out, "--quiet")
+    assert status == 0, err
+    data = load_trajectories(out)
+    trajectory, _ = run_clip(clip.left, clip.right, PipelineParams.for_frame(320))
+    seen = trajectory.area > 0
+    assert data.label.tolist() == ["right"] and seen.sum() >= 2
+    assert np.array_equal(data.trajectory(0), trajectory.centroid[seen].astype(np.float32))
+
+
+@pytest.mark.parametrize("case, words", [
+    ("no_xy", ["a.csv", "x and y columns"]),
+    ("bad_number", ["a.csv:3", "x and y must be numbers"]),
+    ("no_label", ["a.csv", "no label", "--label"]),
+    ("missing_row_path", ["list.csv:2", "does not exist"]),
+    ("bad_subject", ["--subject", "0..65535"]),
+    ("one_point", ["a.csv", "1 points", "at least 2"]),
+    ("nothing", ["INPUT", "neither a clip folder nor a CSV file"]),
+])
+def test_dataset_command_refuses_bad_input_in_one_line(tmp_path, capsys, case, words):
+    from tests.cli_helpers import assert_one_line_error, run
+    a = tmp_path / "a.csv"
+    a.write_text({"no_xy": "u,v\n1,2\n", "bad_number": "x,y\n1,2\nfoo,3\n",
+                  "one_point": "x,y\n1,2\n"}.get(case, "x,y\n1,2\n3,4\n"))
+    (tmp_path / "list.csv").write_text("path,label\nnowhere.csv,a\n")
+    inputs = {"missing_row_path": [tmp_path / "list.csv"],
+              "nothing": [tmp_path / "nothing"]}.get(case, [a])
+    extra = [] if case == "no_label" else ["--label", "circle"]
+    if case == "bad_subject":
+        extra += ["--subject", "70000"]
+    out = tmp_path / "out.npz"
+    status, _, err = run(capsys, "dataset", *inputs, "-o", out, *extra)
+    assert status == 2
+    assert_one_line_error(err, "dataset", *words)
+    assert not out.exists()
