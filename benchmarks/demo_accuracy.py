@@ -1,4 +1,4 @@
-"""End-to-end recognition figure of the README: rendered clips of the seven
+"""End-to-end recognition figure (docs/design/soc.md): rendered clips of the seven
 thesis gestures, each through the Verilated FPGA side and the unmodified board
 application (what ``stereogest demo`` does for one clip), with seeds not used
 in development (2001 onwards; the demo's default is seed 1; seeds 1-3 and

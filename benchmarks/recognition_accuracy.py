@@ -1,4 +1,4 @@
-"""Recognition and rejection figures of the README, on people the models never saw.
+"""Recognition and rejection figures (docs/design/recognition.md), on people the models never saw.
 
 Sections (``--section``, repeatable; default all):
 
@@ -49,7 +49,7 @@ SECTIONS = ("robot", "dollar", "pendigits")
 
 
 def variants(resample):
-    """(name, recogniser) of the README table, the default last."""
+    """(name, recogniser) of the figures' table, the default last."""
     return [
         ("discrete, 5 states, no floor (thesis §9.4)",
          Recogniser(emission="discrete", resample=resample, states=5, reject=False)),

@@ -4,7 +4,7 @@ degree, principal points a few pixels apart, mild barrel distortion), to try
 ``stereogest calibrate`` without cameras. ``--truth FILE`` also writes the
 rig's own calibration (what ``calibrate`` should recover), which every command
 with ``--calibration`` takes: the default rig's maps, as ``stereogest timing``
-and the README's figures use them."""
+and the documentation's figures use them."""
 from __future__ import annotations
 
 import argparse
