@@ -18,6 +18,7 @@ from __future__ import annotations
 
 #: Longest first, as ``--durations`` ranked them in a run with a cold build cache.
 SLOW_FILES = (
+    "test_benchmarks.py",               # short runs of every benchmark and soak
     "test_hdl_pipeline_verilator.py",   # 640x480 pipeline build and clip, faults, stages
     "test_hdl_place_route.py",          # nextpnr routes
     "test_hdl_stereo_matcher.py",       # whole matcher in the Amaranth simulator
