@@ -33,11 +33,12 @@ FIFO-FULL, pops the FIFO and clears it.
 Checked: the words popped equal the golden model's for the frames that came
 out (:func:`sw_hps.simulated.streaming_words` of :func:`sim.model.pipeline.track`
 over those frames' centroids, each frame's centroid from
-:func:`sim.model.pipeline.process_frame`): ``differences`` must be 0. A frame
-that came out after a fault and every one after it until the next fault matching
-is a recovery; the frames lost per fault are the slots from the fault to its
-recovery without a word; a slot lost with no fault before it since the last
-recovery counts in ``unexplained_losses`` (must be 0).
+:func:`sim.model.pipeline.process_frame`): ``differences`` must be 0. A fault's
+recovery is the first frame out after it (after the replug for an unplugged
+camera); recovered when that frame and every one after it until the next fault
+match. The frames lost per fault are the slots from the fault to its recovery
+without a frame out; a slot lost after a recovery, with no fault to blame,
+counts in ``unexplained_losses`` (must be 0).
 
 Run: ``python benchmarks/soak_hardware.py [--frames 10000]``. The last line of
 output is JSON; CPU seconds are the harness's (the simulation) and this
@@ -310,6 +311,35 @@ class Cameras:
 # ------------------------------------------------------------------ the run
 
 
+def account(faults: dict[int, Fault], came_out: set, bad: set, frames: int) -> list[dict]:
+    """Each fault's recovery and frames lost, set on it; returns the slots lost
+    with no fault to blame (``{"slot", "after"}``).
+
+    A fault's recovery is the first frame out from its slot on, or for an
+    unplugged camera from the slot it is plugged back in (a frame it finished
+    before the cut may come out, the ones while it is away cannot); recovered
+    when that frame and every later one up to the next fault match the golden
+    model. Its frames lost: the slots from the fault to the recovery without a
+    frame out."""
+    slots = sorted(faults)
+    bounds = slots + [frames]
+    unexplained = []
+    for k, slot in enumerate(slots):
+        f = faults[slot]
+        end = bounds[k + 1]
+        back = slot + (f.periods if f.kind == "unplug" else 0)
+        out = [s for s in range(back, end) if s in came_out]
+        f.recovered = bool(out) and not any(s in bad for s in out)
+        first = out[0] if out else end
+        f.lost = sum(1 for s in range(slot, first) if s not in came_out)
+        unexplained += [{"slot": s, "after": f"{f.kind} {f.detail} camera {f.camera} at slot "
+                                             f"{slot}"}
+                        for s in range(first, end) if s not in came_out]
+    unexplained += [{"slot": s, "after": "no fault"}
+                    for s in range(slots[0] if slots else frames) if s not in came_out]
+    return unexplained
+
+
 @dataclass
 class Run:
     stored: dict[int, tuple[int, int]] = field(default_factory=dict)   #: slot -> words
@@ -419,23 +449,15 @@ def run(args) -> dict:
     differences = [s for s, w in result.stored.items() if tuple(w) != tuple(expected[s])]
 
     # recoveries and frames lost per fault
-    came_out = set(result.processed)
-    bad = set(differences)
-    fault_slots = sorted(faults)
-    unexplained = 0
     per_kind: dict[str, list[Fault]] = {k: [] for k in FAULT_KINDS}
-    bounds = fault_slots + [args.frames]
-    for k, slot in enumerate(fault_slots):
-        f = faults[slot]
-        end = bounds[k + 1]
-        out = [s for s in range(slot, end) if s in came_out]
-        f.recovered = bool(out) and not any(s in bad for s in out)
-        first = out[0] if out else end
-        f.lost = first - slot
-        unexplained += sum(1 for s in range(first, end) if s not in came_out)
+    unexplained_slots = account(faults, set(result.processed), set(differences), args.frames)
+    unexplained = len(unexplained_slots)
+    for f in faults.values():
         per_kind[f.kind].append(f)
-    first_fault = fault_slots[0] if fault_slots else args.frames
-    unexplained += sum(1 for s in range(first_fault) if s not in came_out)
+    for item in unexplained_slots:
+        window = stall.get(item["slot"])
+        if window is not None:
+            item["overflow"] = f"slots {window[0]}-{window[0] + window[1] - 1}"
     cpu = time.process_time() - cpu0
     kinds = {}
     for kind, items in per_kind.items():
@@ -468,7 +490,7 @@ def run(args) -> dict:
         "overflow_frames_dropped": result.overflow_dropped,
         "frames_out": len(result.processed), "words_checked": len(result.stored),
         "differences": len(differences), "first_differences": differences[:5],
-        "unexplained_losses": unexplained,
+        "unexplained_losses": unexplained, "first_unexplained": unexplained_slots[:10],
         "cycles": stats.get("cycles"), "harness_cpu_s": round(harness_cpu, 1),
         "python_cpu_s": round(cpu, 1),
         "cycles_per_cpu_s": round(stats.get("cycles", 0) / harness_cpu) if harness_cpu else None,

@@ -362,3 +362,22 @@ def test_soak_hardware_short_run(tmp_path, capsys):
         module.main(["--fifo-depth", "100"])
     assert exc.value.code == 2 and "--fifo-depth must be a power of two" in \
         capsys.readouterr().err
+
+
+def test_soak_hardware_accounts_each_lost_frame_to_its_fault():
+    """An unplug whose frame was finished before the cut: that frame comes out,
+    the ones while the camera is away do not, and they are the unplug's; a
+    frame lost after a recovery is unexplained."""
+    module = load_script("soak_hardware")
+    Fault = module.Fault
+    faults = {10: Fault(10, "unplug", 1, "cut=175000", periods=3),
+              20: Fault(20, "glitch", 0, "href_glitch line=1 byte=2"),
+              30: Fault(30, "clock_stop", 0, "cycle=5 length=9")}
+    came_out = set(range(40)) - {11, 12, 20, 35}
+    unexplained = module.account(faults, came_out, bad=set(), frames=40)
+    assert [(f.lost, f.recovered) for f in faults.values()] == [(2, True), (1, True), (0, True)]
+    assert [u["slot"] for u in unexplained] == [35]
+    assert "clock_stop" in unexplained[0]["after"]
+    # a wrong word after a recovery: not recovered
+    module.account(faults, came_out, bad={25}, frames=40)
+    assert not faults[20].recovered and faults[10].recovered
