@@ -44,8 +44,8 @@ Run: ``python benchmarks/soak_hardware.py [--frames 10000]``. The last line of
 output is JSON; CPU seconds are the harness's (the simulation) and this
 process's (pins, golden model, checks).
 """
-from __future__ import annotations
-
+# (no ``from __future__ import annotations``: tests load this script outside
+# sys.modules, where dataclasses could not resolve string annotations)
 import argparse
 import hashlib
 import json

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,7 +13,6 @@ BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 def load_script(name: str):
     spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCHMARKS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 
@@ -158,7 +156,6 @@ def test_continuous_sessions_scores_rendered_sequences(tmp_path, capsys):
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
     spec = importlib.util.spec_from_file_location("continuous_sessions", path)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     out = tmp_path / "s.json"
     assert module.main(["--sessions", "1", "--per-session", "2", "--json", str(out)]) == 0
@@ -182,7 +179,6 @@ def test_continuous_sessions_with_distractors_counts_idle_commands(tmp_path):
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "continuous_sessions.py"
     spec = importlib.util.spec_from_file_location("continuous_sessions", path)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module     # dataclasses look their module up there
     spec.loader.exec_module(module)
     out = tmp_path / "s.json"
     assert module.main(["--sessions", "1", "--per-session", "1", "--distractors",
