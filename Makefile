@@ -26,15 +26,19 @@ JOBS ?= auto
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n $(JOBS) --dist loadfile
 
+# Every recorded figure with its command and commit (docs/figures/), then the
+# quick benchmarks measured again on this machine; the others take minutes to
+# hours each (their commands are in the figures).
 bench: $(STAMP)
+	$(BIN)/python benchmarks/figures.py
 	$(BIN)/python benchmarks/bench_model.py
 	$(BIN)/python benchmarks/stereo_quality.py
 
 # Routed timing on an ECP5 (nextpnr): every block, the whole matcher, the whole
 # pipeline with three placer seeds, thesis parameters and with the default rig's
 # calibration and hand tracking (hours on this 2-core machine; figures in
-# docs/design/hardware.md). PR_JOBS placements at a time. The two pipeline runs become the
-# record hdl/timing_pipeline.json and the table in docs/design/hardware.md, which make test
+# docs/figures/fpga.md). PR_JOBS placements at a time. The two pipeline runs become the
+# record hdl/timing_pipeline.json and the table in docs/figures/fpga.md, which make test
 # checks against the hardware (a failed seed still writes them: the table says it).
 PR_JOBS ?= 2
 timing: $(STAMP)
@@ -48,7 +52,7 @@ timing: $(STAMP)
 		--calibration build/rig_calibration.json --hand-tracking \
 		-o build/timing_pipeline_calibrated.json
 	$(BIN)/python -m hdl.timing_record build/timing_pipeline.json \
-		build/timing_pipeline_calibrated.json -o hdl/timing_pipeline.json --readme docs/design/hardware.md
+		build/timing_pipeline_calibrated.json -o hdl/timing_pipeline.json --page docs/figures/fpga.md
 
 # The HPS application and its trained model, as deployed to the board: the
 # default recogniser (Gaussian, with rejection); thesis7.json is the thesis'

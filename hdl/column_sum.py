@@ -20,7 +20,7 @@ address x, so a group has one address register instead of a counter per
 disparity (x - d in a memory of ``width - d`` words, until issue 27): the
 same M10K count at 640x480 (8 memories of 60 bits against 48 of 10) and 4 %
 more bits (``width * D`` sums, eq. 20's term, against the triangle without
-the x < d columns); the registers saved are in docs/design/hardware.md.
+the x < d columns); the registers saved are in docs/figures/fpga.md.
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ The ``codes`` trees are built bit-sliced: every wire of the tree is a word with
 one bit per code. The logic per code is the same full adders as ``codes``
 separate trees (fewer LUTs than adder cells on a Cyclone V), but a simulator
 evaluates a word of ``codes`` bits per gate instead of a gate per code: the
-whole pipeline ran 1.8 times as fast under Verilator (docs/design/hardware.md
+whole pipeline ran 1.8 times as fast under Verilator (docs/figures/fpga.md
 "Simulation speed").
 """
 from __future__ import annotations

@@ -1,17 +1,17 @@
 """The whole pipeline's routed timing as the project states it: one record of
 every placement ``make timing`` makes (both configurations, placer seeds 1-3),
 the commit and tools it was measured with, the netlist it describes, and the
-table docs/design/hardware.md shows.
+table the figures page docs/figures/fpga.md shows.
 
 ``make timing`` writes the record (``hdl/timing_pipeline.json``) from the two
 ``stereogest timing --block pipeline`` reports and puts its table into the
-README between :data:`TABLE_BEGIN` and :data:`TABLE_END`. ``make test`` checks
-that the README's table is the record's and that the record's netlists are
+figures page between :data:`TABLE_BEGIN` and :data:`TABLE_END`. ``make test`` checks
+that the page's table is the record's and that the record's netlists are
 the ones the hardware builds today (:func:`stale`): a change to the pipeline
 that alters its netlist fails the tests until ``make timing`` has measured it.
 
 Run as ``python -m hdl.timing_record THESIS.json CALIBRATED.json -o RECORD.json
-[--readme README.md]``.
+[--page PAGE.md]``.
 """
 from __future__ import annotations
 
@@ -26,10 +26,10 @@ from pathlib import Path
 __all__ = ["CONFIGURATIONS", "TABLE_BEGIN", "TABLE_END", "RECORD", "record", "render_table",
            "replace_table", "design_digest", "stale", "main"]
 
-#: The record beside this module, and the README that shows it.
+#: The record beside this module, and the figures page that shows it.
 RECORD = Path(__file__).resolve().parent / "timing_pipeline.json"
-README = Path(__file__).resolve().parent.parent / "docs" / "design" / "hardware.md"
-#: Markers around the generated table in the README.
+PAGE = Path(__file__).resolve().parent.parent / "docs" / "figures" / "fpga.md"
+#: Markers around the generated table in the page.
 TABLE_BEGIN = "<!-- pipeline timing table: written by make timing from hdl/timing_pipeline.json -->"
 TABLE_END = "<!-- end of the pipeline timing table -->"
 
@@ -125,7 +125,7 @@ def _met(rec: dict, name: str) -> bool:
 
 
 def render_table(rec: dict) -> str:
-    """The README's table of the record: per configuration and seed the
+    """The figures page's table of the record: per configuration and seed the
     pipeline clock's and the slower camera clock's Fmax, and the pipeline
     clock's critical path; then the commit and the tools."""
     lines = ["| configuration | target (pipeline clock) | seed | pipeline clock | cameras' PCLK "
@@ -151,24 +151,25 @@ def render_table(rec: dict) -> str:
                     + (": met" if _met(rec, name) else ": not met")) if k == 0 else " | "
             cam_text = f"{cam['fmax_mhz']} MHz (at {cam['constraint_mhz']:g})" if cam else "-"
             lines.append(f"| {head} | {seed} | {fmax_text} | {cam_text} | {route} |")
-    commits = sorted({(c or {}).get("sha", "?")[:10] + ("+" if (c or {}).get("dirty") else "")
+    commits = sorted({(c or {}).get("sha", "?")[:7] + ("+" if (c or {}).get("dirty") else "")
                       for c in rec["commits"]})
     tools = rec["tools"] or {}
-    lines += ["", f"Measured on commit {', '.join(commits)} ('+': with changes to hdl/, "
-              f"soc/ or sim/ not yet committed) with {tools.get('yosys', '?')} and "
-              f"{tools.get('nextpnr', '?')} ({rec['device']}, {rec['width']}x{rec['height']}); "
-              "`make timing`."]
+    measured = (f"Measured with `make timing` at commit {', '.join(f'`{c}`' for c in commits)} "
+                "('+': with changes to hdl/, soc/ or sim/ not yet committed), with "
+                f"{tools.get('yosys', '?')} and {tools.get('nextpnr', '?')} ({rec['device']}, "
+                f"{rec['width']}x{rec['height']}).")
+    lines = [measured, ""] + lines
     return "\n".join(lines)
 
 
-def replace_table(readme_text: str, table: str) -> str:
-    """``readme_text`` with the text between the markers replaced by ``table``;
+def replace_table(page_text: str, table: str) -> str:
+    """``page_text`` with the text between the markers replaced by ``table``;
     ValueError if the markers are missing."""
     try:
-        head, rest = readme_text.split(TABLE_BEGIN, 1)
+        head, rest = page_text.split(TABLE_BEGIN, 1)
         _, tail = rest.split(TABLE_END, 1)
     except ValueError:
-        raise ValueError(f"the README has no '{TABLE_BEGIN}' ... '{TABLE_END}' markers") \
+        raise ValueError(f"the page has no '{TABLE_BEGIN}' ... '{TABLE_END}' markers") \
             from None
     return f"{head}{TABLE_BEGIN}\n{table}\n{TABLE_END}{tail}"
 
@@ -212,8 +213,8 @@ def main(argv=None) -> int:
     parser.add_argument("reports", nargs="+", metavar="REPORT.json",
                         help="stereogest timing --block pipeline reports, one per configuration")
     parser.add_argument("-o", "--output", default=str(RECORD), metavar="RECORD.json")
-    parser.add_argument("--readme", default=None, metavar="README.md",
-                        help="also write the table into this README between the markers")
+    parser.add_argument("--page", default=None, metavar="PAGE.md",
+                        help="also write the table into this page between the markers")
     args = parser.parse_args(argv)
     try:
         reports = []
@@ -223,21 +224,21 @@ def main(argv=None) -> int:
             except (OSError, ValueError) as exc:
                 raise ValueError(f"{path}: not a readable timing report ({exc})") from None
         rec = record(reports)
-        readme = None
-        if args.readme:
+        page = None
+        if args.page:
             try:
-                readme = replace_table(Path(args.readme).read_text(), render_table(rec))
+                page = replace_table(Path(args.page).read_text(), render_table(rec))
             except OSError as exc:
-                raise ValueError(f"--readme: {args.readme}: {exc.strerror}") from None
+                raise ValueError(f"--page: {args.page}: {exc.strerror}") from None
         # both outputs tried before either is written: nothing half-written
         from stereogest.commands import check_output_file
         check_output_file(args.output, "--output")
-        if readme is not None:
-            check_output_file(args.readme, "--readme")
+        if page is not None:
+            check_output_file(args.page, "--page")
         from sim.atomic import write_text_atomic
         write_text_atomic(args.output, json.dumps(rec, indent=1) + "\n")
-        if readme is not None:
-            write_text_atomic(args.readme, readme)
+        if page is not None:
+            write_text_atomic(args.page, page)
     except ValueError as exc:
         print(f"python -m hdl.timing_record: error: {exc}", file=sys.stderr)
         return 2

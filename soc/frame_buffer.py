@@ -27,7 +27,7 @@ READ_LATENCY = 2
 NO_INIT_ATTR = "stereogest_no_init"
 #: Default ``scale`` of :class:`FrameBuffer`: half resolution, a quarter of the
 #: block RAM, as the M10K blocks are the whole core's tightest resource (the
-#: figures: docs/design/soc.md, Resources) and a debug view needs no more.
+#: figures: docs/figures/fpga.md) and a debug view needs no more.
 VGA_SCALE = 2
 
 

@@ -312,7 +312,7 @@ def test_soak_live_short_run(tmp_path, capsys):
     module = load_script("soak_live")
     out = tmp_path / "live.json"
     # half a minute measures the server warming up, not a leak: memory is
-    # judged by the 10-minute run (README)
+    # judged by the 10-minute run (docs/figures/system.md)
     status = module.main(["--minutes", "0.5", "--clients", "5", "--warm-up", "10",
                           "--max-rss-growth", "50", "--json", str(out)])
     report = json.loads(capsys.readouterr().out.splitlines()[-1])

@@ -317,7 +317,7 @@ def test_demo_sequence_continuous(tmp_path, capsys):
     rendered gesture named once, scored against the truth; the thesis'
     spotting on the same back-to-back clip fails the demo."""
     for spotting, expected in (("continuous", 0), ("thesis", 1)):
-        # the open hand: the continuous figures at 320x240 are for it (README)
+        # the open hand: the continuous figures at 320x240 are for it (docs/figures/recognition.md)
         status, stdout, err = run(capsys, "demo", "--backend", "model", "--sequence",
                                   "right,stop", "--pause", "0-5", "--spotting", spotting,
                                   "--width", "320", "--height", "240", "--posture", "open",

@@ -158,3 +158,78 @@ def test_front_page_timing_is_the_records():
         seeds = sorted(record["configurations"][name]["seeds"].items(), key=lambda s: int(s[0]))
         figures = " / ".join(f"{run['clocks']['clk']['fmax_mhz']:.1f}" for _, run in seeds)
         assert f"{figures} MHz ({words})" in readme, (name, figures)
+
+
+def _figures_script():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("figures_pages", ROOT / "benchmarks" / "figures.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_figure_names_its_command_and_commit():
+    """Each section of docs/figures/ says which command measured it at which
+    commit, and every benchmark script is the command of some section."""
+    figures = _figures_script()
+    found = figures.sections()
+    assert len(found) >= 20 and {s.page for s in found} >= {"fpga", "stereo", "system"}
+    assert figures.problems(found) == []
+
+
+def test_figures_check_finds_what_is_missing(tmp_path):
+    figures = _figures_script()
+    pages = tmp_path / "figures"
+    pages.mkdir()
+    (pages / "index.md").write_text("# F\n\n```{toctree}\n:maxdepth: 1\n\npart\n```\n")
+    (pages / "part.md").write_text(
+        "# Part\n\n## Named\n\nMeasured with `python benchmarks/a.py` at commit `0123abc` "
+        "(3 CPU s).\n\n| x |\n|---|\n| 1 |\n\n## Unnamed\n\nA figure: 42.\n\n"
+        "## No commit\n\nMeasured with `python benchmarks/a.py` at commit 0123abc.\n")
+    scripts = tmp_path / "benchmarks"
+    scripts.mkdir()
+    for name in ("a.py", "b.py", "figures.py"):
+        (scripts / name).write_text("")
+    found = figures.sections(pages)
+    assert [s.title for s in found] == ["Named", "Unnamed", "No commit"]
+    assert found[0].measurements[0].commands == ["python benchmarks/a.py"]
+    assert found[0].measurements[0].commits == ["0123abc"]
+    issues = figures.problems(found, scripts, check_commits=False)
+    assert any("'Unnamed': no 'Measured with" in line for line in issues)
+    assert any("'No commit': a Measured line names no commit" in line for line in issues)
+    assert any(line.startswith("benchmarks/b.py: no figures section") for line in issues)
+    assert not any("a.py" in line or "figures.py" in line for line in issues)
+    # a commit that is not in the history is named
+    issues = figures.problems(found[:1], scripts, check_commits=True)
+    assert any("commit 0123abc" in line for line in issues) or figures._shallow()
+
+
+def test_make_bench_prints_every_figure_section():
+    figures = _figures_script()
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "figures.py")],
+                          capture_output=True, text=True, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    for section in figures.sections():
+        assert f"== {section.title}" in proc.stdout
+    assert "**" not in proc.stdout and "](" not in proc.stdout
+    bad = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "figures.py"),
+                          "--page", "nowhere"], capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "--page" in bad.stderr
+    assert "benchmarks/figures.py" in (ROOT / "Makefile").read_text()
+
+
+def test_front_page_figures_come_from_the_figures_pages():
+    """Each number of the front page's figures table stands on a figures page:
+    the front page quotes the figures, it does not hold them. (The routed Fmax,
+    rounded there, is tied to its record by the test above.)"""
+    readme = (ROOT / "README.md").read_text()
+    table = readme.split("## Figures", 1)[1].split("\n## ", 1)[0]
+    pages = "\n".join(p.read_text() for p in (DOCS / "figures").glob("*.md"))
+    rows = [line for line in table.split("\n") if line.startswith("| ")][1:]
+    assert len(rows) >= 10
+    for row in rows:
+        if "`make timing`" in row:
+            continue
+        value = row.strip("|").split("|")[1]
+        for number in re.findall(r"\d[\d,]*(?:\.\d+)?", value):
+            assert number in pages, (number, row[:60])

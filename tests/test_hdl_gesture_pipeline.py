@@ -251,6 +251,6 @@ def test_pipeline_timing_without_building(width, height, params):
     assert flush == (1 + 2 * (width + 1) + (rc + rh) * (width + 1) + params.max_disparity - 1
                      + 2 * (ro * width + ro))
     if (width, height) == (640, 480):
-        assert timing.frame_cycles == 325_837       # the README's figure (eq. 40: 325,293)
+        assert timing.frame_cycles == 325_837       # docs/figures/fpga.md (eq. 40: 325,293)
     with pytest.raises(ValueError, match="width"):
         pipeline_timing(33, height, params)

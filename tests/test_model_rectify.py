@@ -1,6 +1,6 @@
 """sim/model/rectify.py: the compressed map and the integer remap, exactly on
 grids whose answer is known, against loops, and against OpenCV's ``cv2.remap``
-with the full float maps (the error distribution the README quotes)."""
+with the full float maps (the error distribution docs/figures/stereo.md quotes)."""
 import math
 
 import cv2

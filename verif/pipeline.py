@@ -97,7 +97,7 @@ def _make_top(width, height, params, fifo_depth, rectification=None):
 
 
 #: C++ optimisation of the Verilated model: -O3 -march=native ran 2.5 times as
-#: fast as -O2 here (docs/design/hardware.md); the build cache is per machine anyway
+#: fast as -O2 here (docs/figures/fpga.md); the build cache is per machine anyway
 CFLAGS = "-O3 -march=native"
 
 

@@ -59,7 +59,7 @@ def verilator_env() -> dict:
 #: How the Verilog for Verilator is written: ``"amaranth"`` (the default,
 #: ``amaranth.back.verilog``) or ``"yosys"`` (:func:`simulation_verilog`'s
 #: clean-up). Measured on the whole pipeline at 640x480 they run at the same
-#: speed (``benchmarks/bench_pipeline_hw.py``, docs/design/hardware.md), so the default
+#: speed (``benchmarks/bench_pipeline_hw.py``, docs/figures/fpga.md), so the default
 #: saves the clean-up's Yosys run.
 EMISSIONS = ("amaranth", "yosys")
 

@@ -45,7 +45,7 @@ def sparse_census(image, census_window: int = 7) -> np.ndarray:
     ``image[y + dy, x + dx]`` (``(dy, dx) = census_offsets(Wc)[i]``) is
     greater than or equal to the centre ``image[y, x]`` (the ``>=`` of
     thesis Fig. 40 and of the author's VHDL, not the ``>`` of eq. 1; see the
-    docs/figures.md for the measured difference).
+    docs/figures/stereo.md for the measured difference).
 
     Border policy: a neighbour outside the frame gives bit 0 (the hardware
     masks that tap with its row/column counters), so every pixel has a code.

@@ -19,7 +19,7 @@ Border policy (copied by the hardware):
 * The left band: left pixel x' has a right partner at x' - d only when
   ``d <= x'``. A window position without a partner costs ``no_match_cost``
   (default a third of the census bits, the value measured best on the
-  Middlebury scenes, see docs/figures.md). The L2R search covers all D
+  Middlebury scenes, see docs/figures/stereo.md). The L2R search covers all D
   disparities at every pixel, so a left-band pixel whose match lies partly
   outside the right image still gets an answer instead of giving up.
 * The R2L search at right pixel x covers d = 0 .. min(D-1, W-1-x): the
