@@ -61,7 +61,7 @@ timing: $(STAMP)
 # posture of the rendered people's hands (docs/design/posture.md).
 MODEL  ?= sw_hps/models/gestures7.json
 # The continuous model's posture commands (docs/design/posture.md, "Posture commands"): chosen
-# on development seeds by benchmarks/command_postures.py.
+# on development seeds by benchmarks/command_postures.py (docs/figures/posture.md).
 COMMAND_POSTURES := asl1,asl2,asl3,asl4
 COMMAND_SHARE    := 0.5
 STOP_POSTURE     := fist

@@ -1,4 +1,4 @@
-"""The pictures of the scene difficulties (docs/design/renderer.md): for the easy
+"""The pictures of the scene difficulties (docs/figures/scenes.md): for the easy
 scene, each difficulty alone and the hard scene, one frame of a rendered
 gesture a quarter into its motion: the left camera and the opening stage of
 the golden model side by side (the cross: the centroid the pipeline finds).

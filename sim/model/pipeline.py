@@ -56,7 +56,7 @@ DEMO_SPOT_HOLD = 24
 #: Hand tracking of :meth:`PipelineParams.for_frame` (``hand_tracking=True``) for
 #: 640-pixel-wide frames, scaled to the width: the centroid counts the mask within
 #: 64 px of the previous centroid and its first 36 rows (sim.model.centroid).
-#: Chosen on the hard scene's development seeds 501-502 (docs/design/renderer.md).
+#: Chosen on the hard scene's development seeds 501-502 (docs/figures/scenes.md).
 #: The posture descriptor's window (96 px) holds the largest rendered hand with
 #: its fingers spread about its palm.
 HAND_TRACKING_640 = {"track_gate": 64, "hand_rows": 36, "posture_gate": 96}

@@ -2,7 +2,7 @@
 'stereogest train-posture' and 'classify-posture': --people persons (seeds
 --seed, --seed + 1, ...), each holding every posture still in front of the
 chest; each frame goes through the golden model of the whole pipeline
-(presented three times, as a hand held still in a stream), and the file
+(presented five frames in a row, as a hand held still in a stream), and the file
 keeps the left view about the hand (image), the pipeline's posture mask
 there (mask: skin AND the disparity band, opened, within the hand tracking's
 window in the hard scene), the features of the frame's posture record
