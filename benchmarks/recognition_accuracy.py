@@ -1,4 +1,4 @@
-"""Recognition and rejection figures (docs/design/recognition.md), on people the models never saw.
+"""Recognition and rejection figures (docs/figures/recognition.md), on people the models never saw.
 
 Sections (``--section``, repeatable; default all):
 

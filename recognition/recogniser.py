@@ -45,12 +45,12 @@ __all__ = ["EMISSIONS", "DEFAULT_EMISSION", "DEFAULT_REJECT_QUANTILE", "DEFAULT_
            "DEFAULT_REJECT_BUDGET",
            "MARGIN_GRID", "Recogniser", "fold_of_groups"]
 
-#: The best emission model (docs/design/recognition.md): what ``stereogest train`` uses.
+#: The best emission model (docs/figures/recognition.md): what ``stereogest train`` uses.
 DEFAULT_EMISSION = "gaussian"
 #: Quantile of held-out in-vocabulary per-step scores below which a gesture is refused...
 DEFAULT_REJECT_QUANTILE = 0.005
 #: ...less this margin (per-step log-likelihood); None: chosen from the
-#: calibration groups (module docstring; docs/design/recognition.md has both measured).
+#: calibration groups (module docstring; docs/figures/recognition.md has both measured).
 DEFAULT_REJECT_MARGIN = 1.5
 #: Share of a held-out calibration group's gestures the chosen margin may refuse.
 DEFAULT_REJECT_BUDGET = 0.005

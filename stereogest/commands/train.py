@@ -1,7 +1,7 @@
 """Train one left-right HMM per gesture class from a labelled trajectory
 dataset and write the model file the board application loads.
 
---emission gaussian (the default, the best measured: docs/design/recognition.md): whole-
+--emission gaussian (the default, the best measured: docs/figures/recognition.md): whole-
 gesture features (direction, position, arc fraction, turn) with Gaussian
 emissions, several components per class (recognition.gaussian_train).
 --emission discrete: the thesis' 8 orientation symbols and Baum-Welch (§7.4,
@@ -33,7 +33,7 @@ HELP = "train the gesture HMMs (optionally choosing the number of states by cros
 
 _DEFAULT_STATES = 5
 #: --continuous: states per class model (chosen on one synthetic corpus, its
-#: figures measured on another; docs/design/recognition.md, "Continuous recognition")
+#: figures measured on another; docs/figures/recognition.md, "Continuous recognition")
 _CONTINUOUS_STATES = 8
 _DEFAULT_FOLDS = 10
 
