@@ -126,9 +126,9 @@ def problems(found: list[Section], benchmarks: Path = ROOT / "benchmarks",
     return out
 
 
-def plain(line: str) -> str:
-    """A line of Markdown as a terminal shows it best."""
-    return LINK.sub(r"\1", line).replace("**", "")
+def plain(text: str) -> str:
+    """Markdown as a terminal shows it best (links may span lines)."""
+    return LINK.sub(r"\1", text).replace("**", "")
 
 
 def main(argv=None) -> int:
@@ -166,7 +166,7 @@ def main(argv=None) -> int:
         for m in s.measurements:
             print(f"   {', '.join(m.commands)} @ {', '.join(m.commits)}")
         if not args.brief:
-            body = "\n".join(plain(line) for line in s.body).strip("\n")
+            body = plain("\n".join(s.body)).strip("\n")
             print(f"\n{body}\n" if body else "")
     return 0
 

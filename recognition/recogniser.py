@@ -194,6 +194,10 @@ class Recogniser:
         """Per-class thresholds from held-out groups (module docstring)."""
         names = tuple(class_names)
         labels = np.asarray([str(x) for x in labels])
+        if groups is not None and np.unique(np.asarray(groups)).size < 2:
+            raise ValueError("cannot calibrate rejection: the data has one subject, and the "
+                             "thresholds are calibrated on subjects held out from the others "
+                             "(give each person its subject, or use --no-reject)")
         fold = fold_of_groups(labels, groups, self.calibration_folds)
         # per held-out sample: its group, best class, that class' per-step score, right?
         held = []

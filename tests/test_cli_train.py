@@ -376,6 +376,15 @@ def test_train_without_rejection_when_calibration_cannot_work(tmp_path, capsys):
     assert status == 0, err
     assert load_models(model).thresholds is None
     assert json.loads(out)["rejection"] is None
+    # one person's recordings: said so, and the same way out
+    one = tmp_path / "one-person.npz"
+    save_trajectories(TrajectorySet(data.points, data.offsets, data.label,
+                                    np.zeros_like(data.subject)), one)
+    model.unlink()
+    status, out, err = run(capsys, "train", one, "-o", model, *GAUSSIAN, "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "train", "one subject", "--no-reject")
+    assert not model.exists()
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -354,6 +354,7 @@ def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, cap
         assert len(err) == 1 and words in err[0], (args, err)
         assert path.read_bytes() == before          # nothing half-written
     assert main(["posture-commands", str(path), "--table"]) == 0
+    assert path.read_bytes() == before              # printing the table changes nothing
     table = capsys.readouterr().out.splitlines()
     # every class in each command posture, then the stop posture
     assert len([row for row in table if row.startswith("| ")]) == 1 + 7 * 2 + 1

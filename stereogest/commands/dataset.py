@@ -13,8 +13,8 @@ Each INPUT is one recorded gesture:
   row per gesture.
 
 The label of a gesture is its manifest row's, else ``--label``, else the clip's
-own (``clip.json``'s gesture); the subject (who made it; ``train --groups
-subject`` holds people out) its row's, else ``--subject``. Train on the result
+own (``clip.json``'s gesture); the subject (who made it: ``train``
+calibrates rejection on subjects held out) its row's, else ``--subject``. Train on the result
 with ``stereogest train DATA.npz -o MODEL.json --commands CLASS=COMMAND,...``
 to give each class a robot command.
 """

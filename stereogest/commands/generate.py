@@ -2,7 +2,7 @@
 for the DE1-SoC into DIR: the board top's Verilog, the .qsf (device
 5CSEMA5F31C6 and every pin), the .sdc (every clock), the core's Verilog, its
 _hw.tcl component, the qsys-script that builds the HPS system (the core's
-slaves on the lightweight HPS-to-FPGA bridge at 0x000 and 0x100), the Quartus
+slaves on the lightweight HPS-to-FPGA bridge at 0x000, 0x100 and 0x200), the Quartus
 flow script and a README with the steps. DIR must be new, empty, or a bundle
 written before (it is replaced as a whole). Quartus itself is not needed. With
 --calibration the pipeline rectifies both cameras with its maps; with

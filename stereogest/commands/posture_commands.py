@@ -7,7 +7,8 @@ counting neither way), and the motor power each
 command posture puts in the NXT telegram (--power: POSTURE=P pairs, or
 ``fingers``: 20 per extended finger). --clear removes the entry. Every
 posture must be a class of the posture model (--posture-model, default the
-shipped one); the file is rewritten whole or not at all."""
+shipped one); the file is rewritten whole or not at all, and not at all when
+no option changes it (``--table`` alone prints)."""
 from __future__ import annotations
 
 from stereogest.commands import add_json_switch
@@ -121,9 +122,13 @@ def run(args) -> int:
             check_posture_classes(entry, posture_model.class_names, where="postures")
         except ValueError as exc:
             raise ValueError(f"{_option(str(exc))}: {exc}") from None
-    import dataclasses
-    save_models(dataclasses.replace(models, postures=entry, meta=dict(models.meta)),
-                args.model)
+    changes = args.clear or any(v is not None for v in (
+        args.command_postures, args.share, args.stop, args.stop_frames,
+        args.release_frames, args.neutral, args.power))
+    if changes:  # only printing (--table alone) leaves the file as it is
+        import dataclasses
+        save_models(dataclasses.replace(models, postures=entry, meta=dict(models.meta)),
+                    args.model)
     if entry is None:
         print(f"{args.model}: no posture commands")
     else:
