@@ -93,10 +93,10 @@ def run(args) -> int:
 
     models = load_models(args.model)
     posture_model = load_posture_model(args.posture_model)
+    changed = [v for v in (args.command_postures, args.share, args.stop, args.stop_frames,
+                           args.release_frames, args.neutral, args.power) if v is not None]
     if args.clear:
-        if any(v is not None for v in (args.command_postures, args.share, args.stop,
-                                       args.stop_frames, args.release_frames, args.neutral,
-                                       args.power)):
+        if changed:
             raise ValueError("--clear takes no other posture option")
         entry = None
     else:
@@ -122,10 +122,7 @@ def run(args) -> int:
             check_posture_classes(entry, posture_model.class_names, where="postures")
         except ValueError as exc:
             raise ValueError(f"{_option(str(exc))}: {exc}") from None
-    changes = args.clear or any(v is not None for v in (
-        args.command_postures, args.share, args.stop, args.stop_frames,
-        args.release_frames, args.neutral, args.power))
-    if changes:  # only printing (--table alone) leaves the file as it is
+    if args.clear or changed:  # only printing (--table alone) leaves the file as it is
         import dataclasses
         save_models(dataclasses.replace(models, postures=entry, meta=dict(models.meta)),
                     args.model)
