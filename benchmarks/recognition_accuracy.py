@@ -95,9 +95,13 @@ def cross_validated(name, data, groups, folds, resample, docs, quick):
         else:
             row["refused_by_subject"] = outcome.refused_by(data.subject)
             row["refused_worst_subject"] = max(row["refused_by_subject"].values())
-            print(f"{name}, {label}: refused per held-out subject "
-                  + ", ".join(f"{k} {100 * v:.2f} %" for k, v in
-                              row["refused_by_subject"].items()), flush=True)
+            row["refused_right_by_subject"] = outcome.refused_right_by(data.subject)
+            row["refused_right_worst_subject"] = max(row["refused_right_by_subject"].values())
+            for key, what in (("refused_by_subject", "refused"),
+                              ("refused_right_by_subject", "refused that would be named right")):
+                print(f"{name}, {label}: {what}, per held-out subject "
+                      + ", ".join(f"{k} {100 * v:.2f} %" for k, v in row[key].items()),
+                      flush=True)
         rows.append(row)
         if recogniser.reject and docs is not None:
             confusion_png(outcome.confusion(), outcome.class_names, docs / f"confusion_{name}.png",

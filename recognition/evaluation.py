@@ -67,6 +67,14 @@ class CVOutcome:
         return {str(g): float((self.decided[groups == g] < 0).mean())
                 for g in np.unique(groups)}
 
+    def refused_right_by(self, groups) -> dict:
+        """Share of each group's true gestures refused that the best class
+        would have named right (what rejection costs that group; the rest of
+        its refused gestures would have been misnamed): {group: share}."""
+        groups = np.asarray(groups)
+        lost = (self.decided < 0) & (self.best == self.truth)
+        return {str(g): float(lost[groups == g].mean()) for g in np.unique(groups)}
+
     @property
     def fold_accuracy(self) -> list[float]:
         return [float((self.decided[self.fold == f] == self.truth[self.fold == f]).mean())

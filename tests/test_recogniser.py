@@ -387,6 +387,16 @@ def test_grouped_cross_validation():
     assert len(summary["fold_accuracy"]) == 3
 
 
+def test_refused_right_counts_only_gestures_the_best_class_had_right():
+    truth = np.array([0, 0, 1, 1, 2, 2])
+    best = np.array([0, 1, 1, 1, 2, 0])
+    decided = np.array([-1, -1, 1, -1, 2, 0])     # refused: right, wrong, right
+    outcome = CVOutcome(("a", "b", "c"), truth, decided, best, np.zeros(6, np.int64))
+    groups = ["s1", "s1", "s2", "s2", "s3", "s3"]
+    assert outcome.refused_by(groups) == {"s1": 1.0, "s2": 0.5, "s3": 0.0}
+    assert outcome.refused_right_by(groups) == {"s1": 0.5, "s2": 0.5, "s3": 0.0}
+
+
 def test_open_set_rejection_refuses_the_held_out_class():
     names = ("corner", "right", "up")
     data = shapes_data(per_class=6, subjects=3, names=names)
