@@ -78,7 +78,7 @@ model: $(STAMP)
 		--emission discrete \
 		--states 5 --no-reject
 	$(BIN)/stereogest train build/corpus.npz -o sw_hps/models/continuous7.json --seed 0 \
-		--emission discrete --continuous
+		--emission discrete --continuous --verifier sw_hps/models/gestures7.json
 	$(BIN)/stereogest posture-commands sw_hps/models/continuous7.json \
 		--command $(COMMAND_POSTURES) --share $(COMMAND_SHARE) --stop $(STOP_POSTURE) \
 		--stop-frames $(STOP_FRAMES) --release-frames $(RELEASE_FRAMES) \

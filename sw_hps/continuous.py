@@ -26,6 +26,10 @@ a run is named once ``end_delay`` frames pass without a better one, or when
 the source says the hand left or stopped (:meth:`ContinuousRecogniser.flush`).
 A named gesture's symbols cannot start another: every path that entered a
 class model at or before its last step is dropped, so nothing is named twice.
+An optional ``confirm`` callable has the last word on each gesture about to be
+named: one it refuses is forgotten without dropping any path, so its symbols
+may still end or start the gesture that follows (a wave joined to the
+gesture after it, refused, leaves that gesture to be named).
 
 A gesture is one motion: with ``max_gap`` > 0, a symbol that comes more than
 ``max_gap`` frames after the one before (the hand held still, or crept,
@@ -159,6 +163,9 @@ class ContinuousRecogniser:
     ----------
     models : sw_hps.hmm.GestureModels
         Discrete class models (one left-right HMM per class).
+    confirm : callable, optional
+        ``confirm(class_index, first_frame, last_frame) -> bool``, asked
+        before a gesture is named (module docstring); None names every one.
     threshold_bias, end_delay, min_symbols, step, max_gap, max_gap_share
         :data:`SPOTTING_DEFAULTS`; ``end_delay`` and ``max_gap`` in frames;
         ``step`` is kept (:attr:`symbol_step`) for whoever makes the symbols.
@@ -169,11 +176,12 @@ class ContinuousRecogniser:
     in size: a stream of any length runs in constant memory.
     """
 
-    def __init__(self, models, **options):
+    def __init__(self, models, confirm=None, **options):
         if getattr(models, "emission", "discrete") != "discrete":
             raise ValueError("the continuous recogniser needs discrete models "
                              f"(emission 'discrete'), got {models.emission!r}")
         opts = check_spotting(options)
+        self.confirm = confirm
         self.threshold_bias = opts["threshold_bias"]
         self.end_delay = opts["end_delay"]
         self.min_symbols = opts["min_symbols"]
@@ -227,14 +235,14 @@ class ContinuousRecogniser:
         if self._pending is not None:
             waited = frame - self._pending.found_at
             if waited >= self.end_delay and (not self._longer or waited >= 4 * self.end_delay):
-                named.append(self._name(frame))
+                named += self._name(frame)
         return named
 
     def flush(self, frame: int | None = None) -> list[Detection]:
         """The hand left, stopped for good, or the source ended: name what is
         pending and start afresh (no path runs across)."""
         frame = self._frame if frame is None else int(frame)
-        named = [self._name(frame)] if self._pending is not None else []
+        named = self._name(frame) if self._pending is not None else []
         self.reset()
         self._frame = frame
         return named
@@ -285,7 +293,7 @@ class ContinuousRecogniser:
             pending = self._pending
             if pending is not None and first > pending.last_symbol:
                 # a gesture after the pending one: that one is over
-                named.append(self._name(frame))
+                named += self._name(frame)
                 pending = None
             # a better end; the same path on at no loss (the end state's run);
             # another class' gesture that holds the pending one
@@ -311,10 +319,14 @@ class ContinuousRecogniser:
         span = int(frames[-1] - frames[0])
         return span == 0 or int(np.diff(frames).max()) <= self.max_gap_share * span
 
-    def _name(self, frame: int) -> Detection:
-        """Name the pending gesture; every path that began within its symbols
+    def _name(self, frame: int) -> list[Detection]:
+        """Name the pending gesture (a list of it, or empty if ``confirm``
+        refuses it); every path that began within a named gesture's symbols
         ends here, so what it used starts nothing else."""
         p, self._pending = self._pending, None
+        if self.confirm is not None \
+                and not self.confirm(int(p.class_index), p.first_frame, p.last_frame):
+            return []
         self._v[self._start <= p.last_symbol] = _NEG
-        return Detection(int(p.class_index), self.class_names[p.class_index], p.first_frame,
-                         p.last_frame, p.score, frame)
+        return [Detection(int(p.class_index), self.class_names[p.class_index], p.first_frame,
+                          p.last_frame, p.score, frame)]

@@ -6,9 +6,9 @@ Runs on the board's ARM: Python 3 and numpy only, nothing else from this
 project. Training lives in :mod:`recognition`; both read and write the same
 JSON model file through :func:`load_models` / :func:`save_models`.
 
-Model file (JSON), version 5::
+Model file (JSON), version 6::
 
-    {"format": "stereogest-hmm", "version": 5,
+    {"format": "stereogest-hmm", "version": 6,
      "emission": "discrete" | "gaussian",
      "class_names": ["forward", ...],
      "rejection": null | {"statistic": "...", "thresholds": [t_0, ...]},
@@ -21,6 +21,8 @@ Model file (JSON), version 5::
                                          # sw_hps.posture_commands; optional
      "commands": null | {"class": "robot command", ...},
                                          # sw_hps.class_commands; optional
+     "verifier": null | {...},           # a gaussian model file's object with
+                                         # rejection, the same classes; optional
      "meta": {...},                      # free-form: training options, accuracy
      # discrete (this module):
      "num_symbols": 8,
@@ -30,13 +32,19 @@ Model file (JSON), version 5::
      "models": [{"components": [{"stay": [...], "mean": [[...]], "var": [[...]]}, ...]}, ...]}
 
 Version 1 files (discrete, no ``emission`` and no ``rejection``), version 2
-files (no ``spotting``), version 3 files (no ``postures``) and version 4
-files (no ``commands``) still load. ``spotting`` holds the options of the
+files (no ``spotting``), version 3 files (no ``postures``), version 4
+files (no ``commands``) and version 5 files (no ``verifier``) still load. ``spotting`` holds the options of the
 continuous recogniser (:mod:`sw_hps.continuous`, discrete models only; null:
 its defaults).
 Discrete: one model per class; each has N states (N may differ between
 classes), A is N x N, B is N x num_symbols, pi has N entries; every row sums
 to 1.
+
+``verifier`` (discrete models with ``spotting`` only): the isolated
+recogniser that confirms each gesture the continuous recogniser spots
+(:class:`sw_hps.streaming.StreamSpotter`): the spotted span's points must be
+named the same class and not refused by its own thresholds. It is a whole
+Gaussian model file's object, of the same class names, with rejection.
 
 Rejection: the best class c is refused when the gesture's log-likelihood
 under c divided by its length (symbols, or feature vectors) is below
@@ -60,6 +68,7 @@ from .model_format import (EMISSIONS, MODEL_FORMAT, MODEL_VERSION, MODEL_VERSION
                            read_json)
 
 __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "DiscreteHMM",
+           "check_verifier",
            "GestureModels", "ForwardStream", "best_class", "check_thresholds", "decide", "load_models",
            "save_models"]
 _ROW_TOLERANCE = 1e-6
@@ -233,6 +242,9 @@ class GestureModels:
     postures: dict | None = None
     #: Robot command per class (:mod:`sw_hps.class_commands`; None: by name).
     commands: dict | None = None
+    #: The isolated recogniser that confirms spotted gestures (module
+    #: docstring; :class:`sw_hps.gaussian_hmm.GaussianGestureModels` or None).
+    verifier: object = None
 
     emission = "discrete"
 
@@ -250,6 +262,7 @@ class GestureModels:
         object.__setattr__(self, "postures", check_posture_commands(self.postures))
         object.__setattr__(self, "commands", check_commands(self.commands, names))
         ForwardStream(self.models)  # checks the symbol counts agree
+        check_verifier(self.verifier, names, self.spotting)
 
     def command_of(self, class_name: str) -> str | None:
         """The robot command a class sends (None: none)."""
@@ -288,7 +301,9 @@ class GestureModels:
                 {"statistic": "mean log-likelihood per symbol",
                  "thresholds": list(self.thresholds)},
                 "spotting": self.spotting, "postures": self.postures,
-                "commands": self.commands, "meta": self.meta}
+                "commands": self.commands,
+                "verifier": None if self.verifier is None else self.verifier.to_dict(),
+                "meta": self.meta}
 
     @classmethod
     def from_dict(cls, data) -> "GestureModels":
@@ -320,14 +335,40 @@ class GestureModels:
         if rejection is not None and (not isinstance(rejection, dict)
                                       or "thresholds" not in rejection):
             raise ValueError("rejection must be null or an object with thresholds")
+        verifier = data.get("verifier") if version >= 6 else None
+        if verifier is not None:
+            from .gaussian_hmm import GaussianGestureModels
+            try:
+                if not isinstance(verifier, dict) or check_header(verifier)[1] != "gaussian":
+                    raise ValueError("must be a gaussian model file's object")
+                verifier = GaussianGestureModels.from_dict(verifier)
+            except ValueError as exc:
+                raise ValueError(f"verifier: {exc}") from None
         result = cls(tuple(names), tuple(models), dict(data.get("meta") or {}),
                      None if rejection is None else rejection["thresholds"], spotting,
                      data.get("postures") if version >= 4 else None,
-                     data.get("commands") if version >= 5 else None)
+                     data.get("commands") if version >= 5 else None, verifier)
         if "num_symbols" in data and data["num_symbols"] != result.num_symbols:
             raise ValueError(f"num_symbols is {data['num_symbols']} but B has "
                              f"{result.num_symbols} columns")
         return result
+
+
+def check_verifier(verifier, class_names, spotting) -> None:
+    """A verifier must be Gaussian models of ``class_names`` (any order) with
+    rejection thresholds, beside a ``spotting`` entry; ``ValueError`` says which
+    is not."""
+    if verifier is None:
+        return
+    if getattr(verifier, "emission", None) != "gaussian":
+        raise ValueError("verifier must be gaussian models (they score a gesture's points)")
+    if spotting is None:
+        raise ValueError("verifier needs a spotting entry (it confirms spotted gestures)")
+    if sorted(verifier.class_names) != sorted(class_names):
+        raise ValueError(f"verifier classes {list(verifier.class_names)} must be the models' "
+                         f"{list(class_names)}")
+    if verifier.thresholds is None:
+        raise ValueError("verifier must have rejection thresholds (trained without --no-reject)")
 
 
 def check_thresholds(thresholds, num_classes: int) -> tuple[float, ...] | None:

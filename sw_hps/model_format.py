@@ -16,10 +16,10 @@ __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "MODEL_VERSIONS", "EMISSIONS", "chec
 
 MODEL_FORMAT = "stereogest-hmm"
 #: Version written; 1 (discrete, no rejection), 2 (no spotting), 3 (no
-#: postures) and 4 (no commands) are still read.
-MODEL_VERSION = 5
+#: postures), 4 (no commands) and 5 (no verifier) are still read.
+MODEL_VERSION = 6
 #: Versions read.
-MODEL_VERSIONS = (1, 2, 3, 4, 5)
+MODEL_VERSIONS = (1, 2, 3, 4, 5, 6)
 #: Emission models a model file may hold.
 EMISSIONS = ("discrete", "gaussian")
 

@@ -28,6 +28,13 @@ gesture boundaries itself:
   ``stop_frames`` records sends
   the stop telegram at once: what is pending is forgotten, and nothing is
   named until the hand leaves the stop posture;
+* with the model file's ``verifier`` (:mod:`sw_hps.hmm`), a spotted gesture
+  is a command only if the isolated recogniser names the points of its span
+  (first to last symbol, or that span less up to a quarter of its start:
+  :data:`VERIFY_TRIMS`) the same class and its thresholds do not refuse
+  them: the threshold model judges symbols one step at a time, the isolated
+  recogniser the whole shape, and a reach or a wave that the first takes for
+  a gesture seldom passes the second;
 * a named gesture's NXT telegram goes to the robot at once.
 
 The hardware's flag is not used: it is the thesis' rest-gesture-rest
@@ -61,6 +68,8 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from .app import RESULTS_KEPT
 from .busfault import (FAULT_REMINDER, MAX_BUSY_STEPS, MAX_FAULT_INTERVAL, BusFault,
                        BusFaultWatch, RepeatFilter, control_fault, describe_bus, lengths_fault,
@@ -81,6 +90,16 @@ log = logging.getLogger(__name__)
 DEFAULT_POLL_INTERVAL = 0.005
 #: Back-off after a fault (doubling up to the maximum), seconds.
 INITIAL_BACKOFF, MAX_BACKOFF = 0.1, 5.0
+#: Frames of hand positions kept for the verifier (34 s at 30 fps: longer than
+#: any gesture the continuous recogniser names).
+VERIFY_FRAMES = 1024
+#: Shares of a spotted span's points the verifier may leave out at its start:
+#: where the threshold model lets a gesture begin is less sure than where it
+#: ends, and motion just before a gesture often joins it. Chosen on the
+#: development sessions (scene seeds 300-309, benchmarks/spotting_dev.py):
+#: at 320x240 F1 96.2 % without trimming, 96.9 % with these, the same up to
+#: half; at 640x480 one rotate-left in 16 gestures was refused untrimmed.
+VERIFY_TRIMS = (0.0, 0.125, 0.25)
 
 
 def check_streaming_models(models):
@@ -162,6 +181,8 @@ class StreamSpotter:
     commands : sw_hps.posture_commands.PostureCommands or None
     refused : int
         Gestures spotted that were no command (not in a command posture).
+    unconfirmed : int
+        Gestures spotted that the model file's verifier did not confirm.
     """
 
     def __init__(self, models, frame_width: int = FRAME_WIDTH):
@@ -169,13 +190,18 @@ class StreamSpotter:
         if isinstance(frame_width, bool) or not isinstance(frame_width, int) \
                 or not 8 <= frame_width <= 4096:
             raise ValueError(f"frame_width must be an integer in [8, 4096], got {frame_width!r}")
-        self.recogniser = ContinuousRecogniser(models, **models.spotting)
+        self.verifier = getattr(models, "verifier", None)
+        self.recogniser = ContinuousRecogniser(
+            models, confirm=self._confirmed if self.verifier is not None else None,
+            **models.spotting)
         self.symbols = DistanceSymbols(step_pixels(models.spotting["step"], frame_width))
         postures = postures_for_frame(getattr(models, "postures", None), frame_width, log)
         self.commands = PostureCommands(postures) if postures is not None else None
         self._stop_index = list(models.class_names).index("stop") \
             if "stop" in models.class_names else -1
+        self._path = deque(maxlen=VERIFY_FRAMES)    # (frame, x, y) of the symbols' frames
         self.refused = 0
+        self.unconfirmed = 0
         self.frames = 0              # records taken since the last reset
 
     @property
@@ -188,6 +214,7 @@ class StreamSpotter:
         self.symbols.reset()
         if self.commands is not None:
             self.commands.reset()
+        self._path.clear()
         self.frames = 0
 
     def take(self, x_fixed: int, y_fixed: int, present: bool, posture=None,
@@ -210,7 +237,10 @@ class StreamSpotter:
                 return []
         # with the clutch released motion counts as little as a hand out of view
         if present and (self.commands is None or self.commands.engaged):
-            symbol = self.symbols.push((int(x_fixed) >> FRAC_BITS, int(y_fixed) >> FRAC_BITS))
+            point = (int(x_fixed) >> FRAC_BITS, int(y_fixed) >> FRAC_BITS)
+            if self.verifier is not None:
+                self._path.append((frame,) + point)
+            symbol = self.symbols.push(point)
             return self._judged(self.recogniser.step(frame, symbol))
         self.symbols.reset()          # the hand left (or let go): name what is pending
         return self._judged(self.recogniser.flush(frame))
@@ -236,6 +266,31 @@ class StreamSpotter:
             out.append(Command(d.class_index, d.name, d.first, d.last, d.score, d.named_at,
                                verdict.posture, verdict.share, verdict.power))
         return out
+
+    def _confirmed(self, class_index: int, first: int, last: int) -> bool:
+        """Whether the verifier names the points of frames ``first``..``last``
+        the spotted class without refusing them (the recogniser's ``confirm``);
+        logs why not."""
+        spotted = self.recogniser.class_names[class_index]
+        points = np.array([(x, y) for f, x, y in self._path if first <= f <= last],
+                          dtype=np.float64).reshape(-1, 2)
+        why = None
+        for trim in VERIFY_TRIMS:
+            path = points[round(trim * len(points)):]
+            scores = self.verifier.scores_of_points(path) if len(path) >= 2 else None
+            if scores is None:
+                index, reason = -1, "no motion"
+            else:
+                index, reason = self.verifier.decide(scores)
+            name = self.verifier.class_names[index] if index >= 0 else None
+            if name == spotted:
+                return True
+            if why is None:
+                why = reason if name is None else f"it names the path {name}"
+        self.unconfirmed += 1
+        log.info("spotted %s (frames %d-%d) is not confirmed by the verifier: %s",
+                 spotted, first, last, why)
+        return False
 
 
 class StreamingApp:

@@ -440,4 +440,4 @@ def test_train_maps_classes_to_robot_commands(tmp_path, capsys, dataset):
     models = load_models(mapped)
     assert models.commands == {"up": "forward", "down-left": "back"}
     assert [models.command_of(n) for n in models.class_names] == ["back", "right", "forward"]
-    assert json.loads(mapped.read_text())["version"] == 5
+    assert json.loads(mapped.read_text())["version"] == 6

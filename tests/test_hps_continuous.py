@@ -175,3 +175,27 @@ def test_spotting_options_live_in_the_model_file(tmp_path):
                                "step": 20, "max_gap": 0, "max_gap_share": 0.0}
     rec = ContinuousRecogniser(loaded, **loaded.spotting)
     assert (rec.threshold_bias, rec.end_delay) == (-0.5, 6)
+
+
+def test_confirm_refuses_a_gesture_and_leaves_its_symbols_to_the_next():
+    """``confirm`` is asked with the class and frames a gesture would be named
+    with; one it refuses is not named and drops no path, so a gesture that
+    began inside its symbols is named in its place."""
+    models = GestureModels(("a", "b", "c"), (_chain([0, 2, 0, 2]), _chain([0, 2, 4, 6, 1]),
+                                             _chain([1, 3, 5, 7])))
+    frames = [s for s in (0, 2, 0, 2, 4, 6, 1) for _ in range(3)] + [None] * 20
+    plain = _run(ContinuousRecogniser(models, end_delay=5), frames)
+    assert [(d.name, d.first, d.last) for d in plain] == [("a", 0, 11)]
+    asked = []
+
+    def refuse_a(class_index, first, last):
+        asked.append((class_index, first, last))
+        return models.class_names[class_index] != "a"
+
+    named = _run(ContinuousRecogniser(models, end_delay=5, confirm=refuse_a), frames)
+    assert asked[0] == (0, 0, 11)
+    assert [(d.name, d.first, d.last) for d in named] == [("b", 6, 20)]
+    assert asked[-1] == (1, 6, 20)
+    # refusing everything names nothing
+    assert _run(ContinuousRecogniser(models, end_delay=5, confirm=lambda *_: False),
+                frames) == []

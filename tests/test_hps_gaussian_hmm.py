@@ -246,7 +246,7 @@ def test_model_file_round_trip_keeps_every_score(tmp_path):
     path = tmp_path / "gauss.json"
     save_models(models, path)
     data = json.loads(path.read_text())
-    assert (data["version"], data["emission"]) == (5, "gaussian")
+    assert (data["version"], data["emission"]) == (6, "gaussian")
     assert data["rejection"]["thresholds"] == [-3.0, -2.5, -4.0]
     assert data["features"]["names"] == list(FEATURE_NAMES)
     loaded = load_models(path)
@@ -295,12 +295,13 @@ def test_version_1_discrete_file_still_loads(tmp_path):
     # Version 1 has no emission field: even a stray one is ignored (always discrete).
     path.write_text(json.dumps({**discrete_v1(), "emission": "gaussian"}))
     assert load_models(path).emission == "discrete"
-    # Written back, it is a version 5 discrete file with the same scores.
-    save_models(models, tmp_path / "v5.json")
-    data = json.loads((tmp_path / "v5.json").read_text())
+    # Written back, it is a version 6 discrete file with the same scores.
+    save_models(models, tmp_path / "v6.json")
+    data = json.loads((tmp_path / "v6.json").read_text())
     assert (data["version"], data["emission"], data["rejection"], data["spotting"],
-            data["postures"], data["commands"]) == (5, "discrete", None, None, None, None)
-    assert np.array_equal(load_models(tmp_path / "v5.json").scores([3, 3, 3]), scores)
+            data["postures"], data["commands"], data["verifier"]) == \
+        (6, "discrete", None, None, None, None, None)
+    assert np.array_equal(load_models(tmp_path / "v6.json").scores([3, 3, 3]), scores)
     # A version 2 file (no spotting) loads too.
     path.write_text(json.dumps({**discrete_v1(), "version": 2, "emission": "discrete",
                                 "rejection": None}))
@@ -348,7 +349,7 @@ def gaussian_dict(**change):
     ({**discrete_v1(), "version": 3, "emission": "discrete", "spotting": [1]},
      ["spotting must be null or an object"]),
     (gaussian_dict(version=3, spotting={"end_delay": 4}), ["spotting must be null", "gaussian"]),
-    ({**discrete_v1(), "version": 6}, ["version must be one of [1, 2, 3, 4, 5]"]),
+    ({**discrete_v1(), "version": 7}, ["version must be one of [1, 2, 3, 4, 5, 6]"]),
     ({**discrete_v1(), "version": 5, "emission": "discrete", "commands": ["stop"]},
      ["commands must be null or an object"]),
     ({**discrete_v1(), "version": 5, "emission": "discrete", "commands": {"zigzag": "stop"}},

@@ -318,7 +318,7 @@ def test_the_board_refuses_postures_its_posture_model_does_not_know(tmp_path, ca
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "postures: flat not a class of the posture model" in err[0]
     data = json.loads(path.read_text())
-    assert data["version"] == 5 and data["postures"]["stop"] == "flat"
+    assert data["version"] == 6 and data["postures"]["stop"] == "flat"
 
 
 def test_posture_commands_command_sets_checks_and_clears_the_entry(tmp_path, capsys):

@@ -313,3 +313,113 @@ def test_the_tracker_classifies_each_new_record_once():
     slave.read32 = lambda offset: 1 / 0          # a fault costs the frame, not the loop
     tracker.poll(4)
     assert tracker.errors == 1 and 4 not in tracker.names
+
+
+@pytest.fixture(scope="module")
+def verifier(corpus):
+    """Gaussian models with rejection of the same two people as ``models``."""
+    from recognition.recogniser import Recogniser
+    train = corpus.subset(np.flatnonzero(corpus.subject != 2))
+    recogniser = Recogniser()
+    return recogniser.fit(recogniser.samples(train), train.label, train.class_names,
+                          groups=train.subject)
+
+
+def _named(models, stream):
+    from types import SimpleNamespace
+
+    from stereogest.pipeline_outputs import stream_results
+    fixed = _smoothed_fixed(stream.points)
+    return stream_results(models, SimpleNamespace(smoothed=fixed,
+                                                  area=np.ones(len(fixed), np.int64)), 640)
+
+
+def test_the_verifier_confirms_each_spotted_gesture(models, verifier, stream, caplog):
+    """A verifier names every command over its span the same class without
+    refusing it; one whose classes are shuffled confirms none of them and
+    says why."""
+    import dataclasses
+    import logging
+
+    from sw_hps.streaming import StreamSpotter
+    plain = _named(models, stream)
+    checked = _named(dataclasses.replace(models, verifier=verifier), stream)
+    assert checked and len(checked) <= len(plain) + 1
+    fixed = _smoothed_fixed(stream.points) >> 8
+    for d in checked:
+        scores = verifier.scores_of_points(fixed[d["first"]:d["last"] + 1].astype(float))
+        index, _ = verifier.decide(scores)
+        assert verifier.class_names[index] == d["name"]
+    # the same verifier with its classes rotated names every path another class
+    names = verifier.class_names
+    wrong = dataclasses.replace(verifier, class_names=names[1:] + names[:1])
+    spotter = StreamSpotter(dataclasses.replace(models, verifier=wrong), 640)
+    with caplog.at_level(logging.INFO, logger="sw_hps.streaming"):
+        named = [d for x, y in _smoothed_fixed(stream.points) for d in spotter.take(x, y, True)]
+        named += spotter.flush()
+    assert named == [] and spotter.unconfirmed >= len(plain)
+    assert "is not confirmed by the verifier" in caplog.text
+
+
+def test_the_verifier_lives_in_the_model_file(models, verifier, tmp_path):
+    import dataclasses
+
+    from sw_hps.hmm import check_verifier
+    path = tmp_path / "m.json"
+    save_models(dataclasses.replace(models, verifier=verifier), path)
+    again = load_models(path)
+    assert again.verifier.class_names == verifier.class_names
+    assert again.verifier.thresholds == verifier.thresholds
+    data = json.loads(path.read_text())
+    assert data["version"] == 6 and data["verifier"]["emission"] == "gaussian"
+    # a version 5 file has no verifier, whatever it holds
+    data["version"] = 5
+    path.write_text(json.dumps(data))
+    assert load_models(path).verifier is None
+    for bad, message in (
+            (models, "verifier must be gaussian models"),
+            (dataclasses.replace(verifier, class_names=tuple("abcdefg")),
+             "verifier classes"),
+            (verifier.with_thresholds(None), "verifier must have rejection thresholds")):
+        with pytest.raises(ValueError, match=message):
+            check_verifier(bad, models.class_names, models.spotting)
+    with pytest.raises(ValueError, match="verifier needs a spotting entry"):
+        dataclasses.replace(models, spotting=None, verifier=verifier)
+    data["version"] = 6
+    data["verifier"] = {"format": "stereogest-hmm", "version": 6, "emission": "discrete"}
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="verifier: must be a gaussian model file's object"):
+        load_models(path)
+
+
+def test_train_continuous_with_a_verifier(verifier, tmp_path, capsys):
+    from recognition.datasets import save_trajectories
+    from sw_hps.hmm import save_models as save
+    from stereogest.cli import main
+    data = synthetic_corpus(per_class=4, people=2, seed=9)
+    path = tmp_path / "c.npz"
+    save_trajectories(data, path)
+    save(verifier, tmp_path / "v.json")
+    out = tmp_path / "m.json"
+    assert main(["train", str(path), "-o", str(out), "--emission", "discrete", "--continuous",
+                 "--states", "4", "--verifier", str(tmp_path / "v.json"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert load_models(out).verifier.class_names == verifier.class_names
+    import dataclasses
+    save(dataclasses.replace(verifier, class_names=tuple("abcdefg")), tmp_path / "w.json")
+    save(verifier.with_thresholds(None), tmp_path / "n.json")
+    for argv, message in (
+            (["--emission", "discrete", "--verifier", str(tmp_path / "v.json")],
+             "--verifier applies to --continuous"),
+            (["--emission", "discrete", "--continuous", "--verifier", str(tmp_path / "no.json")],
+             "--verifier: "),
+            (["--emission", "discrete", "--continuous", "--verifier", str(tmp_path / "w.json")],
+             "--verifier: verifier classes"),
+            (["--emission", "discrete", "--continuous", "--verifier", str(tmp_path / "n.json")],
+             "--verifier: verifier must have rejection thresholds"),
+            (["--emission", "discrete", "--continuous", "--verifier", str(out)],
+             "--verifier: verifier must be gaussian models")):
+        assert main(["train", str(path), "-o", str(tmp_path / "x.json"), *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+        assert not (tmp_path / "x.json").exists()

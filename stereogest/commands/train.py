@@ -119,6 +119,11 @@ def add_arguments(p):
     p.add_argument("--step", type=int, default=None, metavar="PX",
                    help="--continuous: pixels of travel per symbol at 640 wide, 1..640 "
                         f"(default {SPOTTING_DEFAULTS['step']})")
+    p.add_argument("--verifier", metavar="MODEL.json", default=None,
+                   help="--continuous: a gaussian model file of the same classes, with "
+                        "rejection (as the default train writes), kept in the output: each "
+                        "spotted gesture is named only if it names the gesture's path the "
+                        "same class without refusing it")
     p.add_argument("--commands", metavar="CLASS=COMMAND,...", default=None,
                    help="the robot command each class sends (one of forward, back, right, "
                         "left, rotate-right, rotate-left, stop), for classes named otherwise; "
@@ -154,6 +159,8 @@ def _check_options(args) -> list[int] | None:
     gaussian = args.emission == "gaussian"
     if args.step is not None and not args.continuous:
         raise ValueError("--step applies to --continuous")
+    if args.verifier is not None and not args.continuous:
+        raise ValueError("--verifier applies to --continuous")
     if args.continuous:
         if args.emission != "discrete":
             raise ValueError("--continuous needs --emission discrete (the threshold model is "
@@ -440,13 +447,28 @@ def _run_gaussian(args, data, data_path, say, start) -> int:
     return 0
 
 
+def _verifier(path, class_names):
+    """The ``--verifier`` model file, checked against the data's classes
+    (``ValueError`` naming the option)."""
+    from sw_hps.hmm import check_verifier, load_models
+    try:
+        verifier = load_models(path)
+        check_verifier(verifier, class_names, {})
+    except (ValueError, OSError) as exc:
+        raise ValueError(f"--verifier: {exc}") from None
+    return verifier
+
+
 def _run_continuous(args, data, data_path, say, start) -> int:
+    from dataclasses import replace
+
     from recognition.continuous import train_continuous
     from sw_hps.continuous import SPOTTING_DEFAULTS
     if data.subject is None or len(set(data.subject.tolist())) < 2:
         raise ValueError(f"{data_path}: --continuous calibrates on held-out subjects: the "
                          f"dataset needs a subject (or writer) key with at least 2 subjects")
     step = SPOTTING_DEFAULTS["step"] if args.step is None else args.step
+    verifier = _verifier(args.verifier, data.class_names) if args.verifier else None
     say(f"{len(data)} trajectories of {len(set(data.subject.tolist()))} subjects; training "
         f"{args.states}-state models on symbols every {step} px of travel, calibrating the "
         "threshold bias and the end delay")
@@ -454,6 +476,9 @@ def _run_continuous(args, data, data_path, say, start) -> int:
         data, states=args.states, step=step,
         emission_floor=args.emission_floor or 1e-3, seed=args.seed,
         meta={"dataset": str(data_path), "states": args.states})
+    if verifier is not None:
+        models = replace(models, verifier=verifier, meta=dict(models.meta, verifier=str(
+            args.verifier)))
     models = _save(models, args)
     say(f"wrote {args.output}")
     print(json.dumps({"output": str(args.output), "classes": list(data.class_names),
