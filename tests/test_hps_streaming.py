@@ -423,3 +423,33 @@ def test_train_continuous_with_a_verifier(verifier, tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err, err
         assert not (tmp_path / "x.json").exists()
+
+
+def test_the_verifier_may_leave_out_the_start_of_a_spotted_span(models, verifier, corpus,
+                                                                monkeypatch):
+    """A held-out person's gestures led in by a stroke from below a sixth of
+    their length: the span from the lead-in's first frame is confirmed more
+    often with the start left out (VERIFY_TRIMS) than without."""
+    import dataclasses
+
+    import sw_hps.streaming as streaming
+    held = corpus.subset(np.flatnonzero(corpus.subject == 2))
+
+    def confirmed(trims):
+        monkeypatch.setattr(streaming, "VERIFY_TRIMS", trims)
+        count = 0
+        for i in range(len(held)):
+            points = np.asarray(held.trajectory(i), np.float64)
+            lead = points[0] + np.outer(np.linspace(1, 0, len(points) // 6, endpoint=False),
+                                        [0, 60])
+            path = _smoothed_fixed(np.vstack([lead, points])) >> 8
+            spotter = streaming.StreamSpotter(dataclasses.replace(models, verifier=verifier),
+                                              640)
+            spotter._path.extend((f, int(x), int(y)) for f, (x, y) in enumerate(path))
+            count += spotter._confirmed(models.class_names.index(str(held.label[i])), 0,
+                                        len(path) - 1)
+        return count
+
+    shipped = streaming.VERIFY_TRIMS
+    plain, trimmed = confirmed((0.0,)), confirmed(shipped)
+    assert trimmed >= plain + len(held) // 3, (plain, trimmed)
