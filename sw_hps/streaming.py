@@ -199,7 +199,7 @@ class StreamSpotter:
         self.commands = PostureCommands(postures) if postures is not None else None
         self._stop_index = list(models.class_names).index("stop") \
             if "stop" in models.class_names else -1
-        self._path = deque(maxlen=VERIFY_FRAMES)    # (frame, x, y) of the symbols' frames
+        self._path = deque(maxlen=VERIFY_FRAMES)    # (frame, x, y) of the frames that count
         self.refused = 0
         self.unconfirmed = 0
         self.frames = 0              # records taken since the last reset
