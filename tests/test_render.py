@@ -293,7 +293,7 @@ def test_render_sequence_command_and_continuous_pipeline(tmp_path, capsys):
     thesis' spotting (one flagged run over gestures without rests) names none."""
     out = tmp_path / "seq"
     assert cli.main(["render", "--sequence", "right,stop,left", "--pause", "0-8", "--seed",
-                     "7", "--width", "320", "--height", "240", "-o", str(out), "--json"]) == 0
+                     "8", "--width", "320", "--height", "240", "-o", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert [s["gesture"] for s in report["sequence"]] == ["right", "stop", "left"]
     assert cli.main(["pipeline", str(out), "-o", str(tmp_path / "p"), "--spotting",
