@@ -262,7 +262,9 @@ class GestureModels:
         object.__setattr__(self, "postures", check_posture_commands(self.postures))
         object.__setattr__(self, "commands", check_commands(self.commands, names))
         ForwardStream(self.models)  # checks the symbol counts agree
-        check_verifier(self.verifier, names, self.spotting)
+        check_verifier(self.verifier, names)
+        if self.verifier is not None and self.spotting is None:
+            raise ValueError("verifier needs a spotting entry (it confirms spotted gestures)")
 
     def command_of(self, class_name: str) -> str | None:
         """The robot command a class sends (None: none)."""
@@ -354,16 +356,13 @@ class GestureModels:
         return result
 
 
-def check_verifier(verifier, class_names, spotting) -> None:
+def check_verifier(verifier, class_names) -> None:
     """A verifier must be Gaussian models of ``class_names`` (any order) with
-    rejection thresholds, beside a ``spotting`` entry; ``ValueError`` says which
-    is not."""
+    rejection thresholds; ``ValueError`` says which it is not."""
     if verifier is None:
         return
     if getattr(verifier, "emission", None) != "gaussian":
         raise ValueError("verifier must be gaussian models (they score a gesture's points)")
-    if spotting is None:
-        raise ValueError("verifier needs a spotting entry (it confirms spotted gestures)")
     if sorted(verifier.class_names) != sorted(class_names):
         raise ValueError(f"verifier classes {list(verifier.class_names)} must be the models' "
                          f"{list(class_names)}")

@@ -96,9 +96,8 @@ VERIFY_FRAMES = 1024
 #: Shares of a spotted span's points the verifier may leave out at its start:
 #: where the threshold model lets a gesture begin is less sure than where it
 #: ends, and motion just before a gesture often joins it. Chosen on the
-#: development sessions (scene seeds 300-309, benchmarks/spotting_dev.py):
-#: at 320x240 F1 96.2 % without trimming, 96.9 % with these, the same up to
-#: half; at 640x480 one rotate-left in 16 gestures was refused untrimmed.
+#: development sessions (scene seeds 300-309, benchmarks/spotting_dev.py;
+#: the figures are in CHANGELOG.md).
 VERIFY_TRIMS = (0.0, 0.125, 0.25)
 
 

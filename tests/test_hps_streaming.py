@@ -382,7 +382,7 @@ def test_the_verifier_lives_in_the_model_file(models, verifier, tmp_path):
              "verifier classes"),
             (verifier.with_thresholds(None), "verifier must have rejection thresholds")):
         with pytest.raises(ValueError, match=message):
-            check_verifier(bad, models.class_names, models.spotting)
+            check_verifier(bad, models.class_names)
     with pytest.raises(ValueError, match="verifier needs a spotting entry"):
         dataclasses.replace(models, spotting=None, verifier=verifier)
     data["version"] = 6

@@ -453,7 +453,7 @@ def _verifier(path, class_names):
     from sw_hps.hmm import check_verifier, load_models
     try:
         verifier = load_models(path)
-        check_verifier(verifier, class_names, {})
+        check_verifier(verifier, class_names)
     except (ValueError, OSError) as exc:
         raise ValueError(f"--verifier: {exc}") from None
     return verifier
